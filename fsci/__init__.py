@@ -1,0 +1,9 @@
+"""fsci: monolithic fluid-structure-contact interaction in 2D.
+
+The package solves elastic bodies immersed in incompressible viscous flow on a fixed
+rectilinear background grid (CutFEM), coupled by Nitsche's method, following
+Ager, Seitz, Wall (2019), "A consistent and comprehensive computational approach for
+general fluid-structure-contact interaction problems".
+"""
+
+__version__ = "0.1.0"

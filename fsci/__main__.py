@@ -1,0 +1,3 @@
+from fsci.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,24 @@
+"""Built-in cases. Each is a case dictionary (exactly what ``fsci show CASE`` prints as TOML)
+built by a function in one of the modules below; ``CASES`` maps the name to a one-line
+description and the builder."""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+from fsci.cases import cavity, turek_hron
+
+CASES: dict[str, tuple[str, Callable[[], dict[str, Any]]]] = {
+    "turek-hron-csm1": ("Turek-Hron CSM1: elastic bar under gravity, static (St. Venant-Kirchhoff)", turek_hron.csm1),
+    "turek-hron-csm3": ("Turek-Hron CSM3: elastic bar released under gravity, dynamic", turek_hron.csm3),
+    "cavity": ("Lid-driven cavity, steady Navier-Stokes (--set re=100|1000)", cavity.cavity),
+}
+
+
+def case_names() -> list[str]:
+    return list(CASES)
+
+
+def get_case(name: str) -> dict[str, Any]:
+    """The case dictionary of a built-in case (a fresh copy)."""
+    return CASES[name][1]()

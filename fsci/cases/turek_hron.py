@@ -1,0 +1,85 @@
+"""Turek & Hron (2006) benchmark cases (../shared/VALIDATION.md §2).
+
+The elastic bar [0.2489..., 0.6] × [0.19, 0.21] is clamped on the arc of the cylinder
+(centre (0.2, 0.2), radius 0.05); the mapped mesh follows that arc exactly. Control point
+A = (0.6, 0.2). Material: St. Venant-Kirchhoff, rho_s = 1000, nu_s = 0.4,
+E_s = 1.4e6 (CSM1/CSM3), gravity 2 m/s² in -y.
+
+Reference values: FeatFlow finest rows (VALIDATION.md §2.3).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+X_ARC = 0.2 + math.sqrt(0.05 ** 2 - 0.01 ** 2)
+
+
+def bar_body(nx: str | int = "=nx", ny: str | int = "=ny", E: float = 1.4e6, rho: float = 1000.0) -> dict[str, Any]:
+    """The Turek-Hron bar as a body table (mapped mesh clamped on the arc)."""
+    return {
+        "name": "bar",
+        "material": {"law": "svk", "E": E, "nu": 0.4, "rho": rho},
+        "mesh": {
+            "type": "mapped",
+            "nx": nx,
+            "ny": ny,
+            "sides": {
+                "bottom": {"line": [[X_ARC, 0.19], [0.6, 0.19]]},
+                "right": {"line": [[0.6, 0.19], [0.6, 0.21]]},
+                "top": {"line": [[X_ARC, 0.21], [0.6, 0.21]]},
+                "left": {"arc": {"start": [X_ARC, 0.19], "center": [0.2, 0.2], "end": [X_ARC, 0.21]}},
+            },
+        },
+        "dirichlet": [{"boundary": "left", "value": [0.0, 0.0]}],
+    }
+
+
+def _tip_quantities() -> list[dict[str, Any]]:
+    return [
+        {"name": "ux_A", "type": "point_displacement", "body": "bar", "point": [0.6, 0.2], "component": 0},
+        {"name": "uy_A", "type": "point_displacement", "body": "bar", "point": [0.6, 0.2], "component": 1},
+    ]
+
+
+def csm1() -> dict[str, Any]:
+    bar = bar_body()
+    bar["body_force"] = [0.0, "=-g"]
+    bar["body_force_function"] = {"type": "ramp", "t0": 0.0, "t1": 1.0}
+    return {
+        "name": "turek-hron-csm1",
+        "kind": "solid",
+        "description": "Turek-Hron CSM1: St. Venant-Kirchhoff bar clamped on the cylinder, static under gravity",
+        "parameters": {"nx": 160, "ny": 8, "g": 2.0},
+        "bodies": [bar],
+        "time": {"type": "static", "t_end": 1.0, "dt": 0.5},
+        "solver": {"tol_residual": 1e-6, "tol_increment": 1e-10},
+        "quantities": _tip_quantities(),
+        "reference": [
+            {"name": "ux_A", "value": -7.18767e-3, "rtol": 0.01, "source": "FeatFlow CSM1 level 5+1"},
+            {"name": "uy_A", "value": -66.1023e-3, "rtol": 0.01, "source": "FeatFlow CSM1 level 5+1"},
+        ],
+        "output": {"every": 0},
+    }
+
+
+def csm3() -> dict[str, Any]:
+    bar = bar_body()
+    bar["body_force"] = [0.0, "=-g"]
+    q = _tip_quantities() + [{"name": "uy_A_osc", "type": "oscillation", "of": "uy_A"},
+                             {"name": "ux_A_osc", "type": "oscillation", "of": "ux_A"}]
+    return {
+        "name": "turek-hron-csm3",
+        "kind": "solid",
+        "description": "Turek-Hron CSM3: the CSM1 bar released from rest under gravity (one-step-theta)",
+        "parameters": {"nx": 80, "ny": 4, "g": 2.0},
+        "bodies": [bar],
+        "time": {"type": "transient", "theta": 0.51, "t_end": 4.0, "dt": 0.005},
+        "solver": {"tol_residual": 1e-6, "tol_increment": 1e-10},
+        "quantities": q,
+        "reference": [
+            {"name": "uy_A_osc_frequency", "value": 1.0995, "rtol": 0.02, "source": "Turek-Hron CSM3 (FeatFlow)"},
+        ],
+        "output": {"every": 20},
+    }

@@ -1,0 +1,37 @@
+"""Error types shared by the whole package.
+
+`InputError` is what a user sees for bad input: one line naming the field, the value and
+what is allowed. The command line turns it into exit status 2.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+class InputError(ValueError):
+    """Invalid user input (case file, command-line override, mesh).
+
+    Parameters
+    ----------
+    field
+        Dotted path of the offending key, e.g. ``bodies[0].material.nu``.
+    value
+        The value that was given.
+    allowed
+        Human-readable description of what is allowed.
+    """
+
+    def __init__(self, field: str, value: Any, allowed: str) -> None:
+        self.field = field
+        self.value = value
+        self.allowed = allowed
+        super().__init__(f"{field} = {value!r}: {allowed}")
+
+
+class SolverError(RuntimeError):
+    """A nonlinear or linear solve failed (the time loop may retry with a smaller step)."""
+
+
+class MeshError(ValueError):
+    """A mesh is unusable (inverted or degenerate cells, unknown set names)."""

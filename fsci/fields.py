@@ -1,0 +1,344 @@
+"""Discrete fields: one :class:`SolidField` per body and the :class:`FluidField`.
+
+A field owns its nodal state arrays (displacement/velocity of a body; velocity and pressure on
+all background nodes), its boundary conditions, and the terms it contributes. The
+:class:`fsci.system.System` gives every field the global node numbers of its dofs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fsci.assembly import Assembly
+from fsci.errors import InputError
+from fsci.fem.quadrature import gauss_quad
+from fsci.mesh.grid import Grid
+from fsci.physics import fluid as fk
+from fsci.physics import solid as sk
+from fsci.physics.materials import LAW_NAMES, material_parameters
+from fsci.problem import Body, Fluid
+
+
+@dataclass
+class StepContext:
+    """Time level data for one step ``t_old -> t_new`` (``static``: no inertia, steady flow)."""
+
+    t_old: float
+    t_new: float
+    dt: float
+    theta: float
+    static: bool
+
+    @property
+    def w_new(self) -> float:
+        """Weight of time-dependent data at t_new (1 for static, theta otherwise)."""
+        return 1.0 if self.static else self.theta
+
+    @property
+    def w_old(self) -> float:
+        return 0.0 if self.static else 1.0 - self.theta
+
+
+class SolidField:
+    """Total-Lagrangian body: state, Dirichlet/Neumann data, bulk and load terms."""
+
+    def __init__(self, body: Body, index: int) -> None:
+        self.body = body
+        self.index = index
+        self.name = body.name
+        self.mesh = body.mesh
+        self.X = body.mesh.nodes
+        self.n = body.mesh.n_nodes
+        self.law = LAW_NAMES[body.material.law]
+        self.prm = material_parameters(self.law, body.material.E, body.material.nu)
+        self.rho = body.material.rho
+        self.U = np.zeros((self.n, 2))
+        self.V = np.zeros((self.n, 2))
+        self.Un = np.zeros((self.n, 2))
+        self.Vn = np.zeros((self.n, 2))
+        self.gnode = np.full(self.n, -1, dtype=np.int64)
+        self.qxi, self.qw = gauss_quad(2)
+        self._r_old: np.ndarray | None = None
+        self._dirichlet = []
+        fixed = np.zeros((self.n, 2), dtype=bool)
+        for d in body.dirichlet:
+            nodes = self._node_set(d.boundary)
+            for c, expr in enumerate(d.values):
+                if expr is not None:
+                    self._dirichlet.append((nodes, c, expr, d.function))
+                    fixed[nodes, c] = True
+        if body.rigid:
+            missing = ~fixed
+            if missing.any():
+                raise InputError(f"bodies.{self.name}.rigid", True,
+                                 "a rigid body needs every node prescribed (Dirichlet on boundary 'body')")
+        self.fixed = fixed
+        self._neumann = [(self.mesh.edge_sets[nm.boundary], nm) for nm in body.neumann]
+
+    def _node_set(self, name: str) -> np.ndarray:
+        if name == "body":
+            return np.arange(self.n)
+        if name in self.mesh.node_sets:
+            return self.mesh.node_sets[name]
+        return np.unique(self.mesh.edge_sets[name])
+
+    # ----------------------------------------------------------------- layout
+    def blocks(self) -> list[np.ndarray]:
+        conn = [self.gnode[self.mesh.cells]]
+        for edges, nm in self._neumann:
+            if nm.kind == "pressure":
+                conn.append(self.gnode[edges])
+        return conn
+
+    def dirichlet_values(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Local nodes, components and prescribed displacements at time ``t``."""
+        nodes, comps, vals = [], [], []
+        for nd, c, expr, fn in self._dirichlet:
+            nodes.append(nd)
+            comps.append(np.full(len(nd), c))
+            vals.append(expr(self.X[nd, 0], self.X[nd, 1], t) * fn(t))
+        if not nodes:
+            e = np.zeros(0, dtype=np.int64)
+            return e, e, np.zeros(0)
+        return np.concatenate(nodes), np.concatenate(comps), np.concatenate(vals)
+
+    # ----------------------------------------------------------------- time stepping
+    def begin_step(self, ctx: StepContext) -> None:
+        """Store the explicit (1 - theta) part of the internal and follower forces."""
+        self._r_old = None
+        if not ctx.static and ctx.theta < 1.0:
+            self._r_old = self.old_force(ctx)
+
+    def velocity_from(self, U: np.ndarray, ctx: StepContext) -> np.ndarray:
+        """One-step-theta velocity ``v = (d - d_n)/(theta dt) - (1 - theta)/theta v_n``."""
+        if ctx.static:
+            return (U - self.Un) / ctx.dt
+        return (U - self.Un) / (ctx.theta * ctx.dt) - (1.0 - ctx.theta) / ctx.theta * self.Vn
+
+    def end_step(self, ctx: StepContext) -> None:
+        self.V = self.velocity_from(self.U, ctx)
+        self.Un = self.U.copy()
+        self.Vn = self.V.copy()
+
+    # ----------------------------------------------------------------- assembly
+    def _body_force(self, ctx: StepContext) -> np.ndarray:
+        fn = self.body.body_force_function
+        return self.body.body_force * (ctx.w_new * fn(ctx.t_new) + ctx.w_old * fn(ctx.t_old))
+
+    def assemble(self, asm: Assembly, ctx: StepContext) -> None:
+        tgt = asm.target()
+        static = ctx.static
+        mass_coef = 0.0 if static or self.rho == 0.0 else 1.0 / (ctx.theta * ctx.dt ** 2)
+        upred = self.Un + ctx.dt * self.Vn
+        w_int = 1.0 if static else ctx.theta
+        conn = self.gnode[self.mesh.cells]
+        sk.assemble_solid(self.X, self.mesh.cells, self.U, self.law, self.prm, self.rho, mass_coef, upred, w_int,
+                          self._body_force(ctx), self.qxi, self.qw, self.gnode, asm.positions(conn), *tgt)
+        self._assemble_neumann(asm, self.U, ((ctx.t_new, ctx.w_new), (ctx.t_old, ctx.w_old)), dead=True,
+                               follower=True)
+        if self._r_old is not None:
+            start = asm.layout.start[self.gnode]
+            for c in range(2):
+                asm.rhs[start + c] += self._r_old[:, c]
+
+    def _edge_loads(self, edges: np.ndarray, nm, levels) -> tuple[np.ndarray, np.ndarray]:
+        """Per-edge dead traction ``(k, 2)`` and follower pressure ``(k,)``, time-weighted.
+
+        Load expressions are evaluated at the edge midpoints (reference coordinates)."""
+        mid = 0.5 * (self.X[edges[:, 0]] + self.X[edges[:, 1]])
+        traction = np.zeros((len(edges), 2))
+        pressure = np.zeros(len(edges))
+        for t, w in levels:
+            if w == 0.0:
+                continue
+            f = nm.function(t) * w
+            if nm.kind == "traction":
+                for c in range(2):
+                    traction[:, c] += nm.values[c](mid[:, 0], mid[:, 1], t) * f
+            else:
+                pressure += nm.values[0](mid[:, 0], mid[:, 1], t) * f
+        return traction, pressure
+
+    def _assemble_neumann(self, asm: Assembly, U: np.ndarray, levels, dead: bool, follower: bool) -> None:
+        """Dead loads with both time levels; follower pressures only at t_new (old part in r_old)."""
+        tgt = asm.target()
+        for edges, nm in self._neumann:
+            if (nm.kind == "traction" and not dead) or (nm.kind == "pressure" and not follower):
+                continue
+            use = levels if nm.kind == "traction" else levels[:1]
+            traction, pressure = self._edge_loads(edges, nm, use)
+            conn = self.gnode[edges]
+            sk.assemble_edge_loads(self.X, U, edges, traction, pressure, self.gnode, asm.positions(conn), *tgt)
+
+    def old_force(self, ctx: StepContext) -> np.ndarray:
+        """(1 - theta) (F_int(d_n) - F_follower(d_n)) as a nodal array ``(n, 2)``."""
+        from fsci.fem.sparse import DofLayout, Pattern
+
+        lay = DofLayout(np.full(self.n, 2))
+        gid = np.arange(self.n, dtype=np.int64)
+        pat = Pattern(lay, [])
+        asm = Assembly(lay, pat, want_matrix=False)
+        tgt = asm.target()
+        cells = self.mesh.cells
+        dummy = np.zeros((len(cells), 4, 4), dtype=np.int32)
+        sk.assemble_solid(self.X, cells, self.Un, self.law, self.prm, self.rho, 0.0, self.Un, 1.0 - ctx.theta,
+                          np.zeros(2), self.qxi, self.qw, gid, dummy, *tgt)
+        for edges, nm in self._neumann:
+            if nm.kind == "pressure":
+                _, p = self._edge_loads(edges, nm, ((ctx.t_old, 1.0 - ctx.theta),))
+                pos = np.zeros((len(edges), 2, 2), dtype=np.int32)
+                sk.assemble_edge_loads(self.X, self.Un, edges, np.zeros((len(edges), 2)), p, gid, pos, *tgt)
+        return asm.rhs.reshape(-1, 2)
+
+    def cell_stress(self) -> np.ndarray:
+        out = np.empty((self.mesh.n_cells, 3))
+        sk.cell_cauchy_stress(self.X, self.mesh.cells, self.U, self.law, self.prm, out)
+        return out
+
+
+class FluidField:
+    """Velocity/pressure on the background grid; ACTIVE nodes carry dofs."""
+
+    def __init__(self, fluid: Fluid) -> None:
+        self.spec = fluid
+        self.grid: Grid = fluid.grid
+        g = self.grid
+        self.rho = fluid.rho
+        self.mu = fluid.mu
+        self.sym = 1.0 if fluid.viscous_form == "symmetric" else 0.0
+        n = g.n_nodes
+        self.V = np.zeros((n, 2))
+        self.P = np.zeros(n)
+        self.Vn = np.zeros((n, 2))
+        self.Pn = np.zeros(n)
+        self.Vbar = np.zeros((n, 2))  # frozen velocity of the stabilisation scalings
+        self.active = np.ones(n, dtype=bool)
+        self.gnode = np.full(n, -1, dtype=np.int64)
+        st = fluid.stabilization
+        self.stab = (st.gamma_u, st.gamma_p, st.gamma_div, st.gamma_gp, st.gamma_gp_t)
+        self._dirichlet = []
+        for d in fluid.dirichlet:
+            nodes = g.side_nodes(d.boundary)
+            for c, expr in enumerate(d.values):
+                if expr is not None:
+                    self._dirichlet.append((nodes, c, expr, d.function))
+        self._neumann = [(g.side_edges(nm.boundary), g.side_normal(nm.boundary), nm) for nm in fluid.neumann]
+        self.needs_pressure_pin = len(fluid.neumann) == 0 or fluid.pressure_reference is not None
+        # integration data of an uncut grid: tensor Gauss on every cell
+        self.set_uncut_quadrature()
+        self.ghost = np.zeros(len(self.faces), dtype=np.bool_)
+
+    # ----------------------------------------------------------------- geometry
+    def set_uncut_quadrature(self) -> None:
+        g = self.grid
+        xi, w = gauss_quad(2)
+        cells = np.arange(g.n_cells)
+        size = g.cell_size
+        x0 = np.column_stack([g.xs[g.cell_ij[:, 0]], g.ys[g.cell_ij[:, 1]]])
+        pts = x0[:, None, :] + 0.5 * (xi[None, :, :] + 1.0) * size[:, None, :]
+        wts = w[None, :] * (0.25 * size[:, 0] * size[:, 1])[:, None]
+        self.int_cells = cells
+        self.qptr = np.arange(0, 4 * len(cells) + 1, 4, dtype=np.int64)
+        self.qx = np.ascontiguousarray(pts.reshape(-1, 2))
+        self.qw = np.ascontiguousarray(wts.ravel())
+        self.faces = g.faces
+        self.face_nodes = fk.face_nodes(g.cells, self.faces)
+
+    def blocks(self) -> list[np.ndarray]:
+        return [self.gnode[self.grid.cells[self.int_cells]], self.gnode[self.face_nodes]]
+
+    # ----------------------------------------------------------------- data
+    def dirichlet_values(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Background nodes, components (0, 1 velocity) and values at time ``t`` (active only)."""
+        nodes, comps, vals = [], [], []
+        X = self.grid.nodes
+        for nd, c, expr, fn in self._dirichlet:
+            nd = nd[self.active[nd]]
+            nodes.append(nd)
+            comps.append(np.full(len(nd), c))
+            vals.append(expr(X[nd, 0], X[nd, 1], t) * fn(t))
+        if not nodes:
+            e = np.zeros(0, dtype=np.int64)
+            return e, e, np.zeros(0)
+        return np.concatenate(nodes), np.concatenate(comps), np.concatenate(vals)
+
+    def pressure_pin(self) -> int | None:
+        """Background node whose pressure is fixed to 0, or ``None`` if pressure is determined."""
+        if not self.needs_pressure_pin:
+            return None
+        ref = self.spec.pressure_reference
+        act = np.nonzero(self.active)[0]
+        if ref is None:
+            return int(act[0])
+        d = np.linalg.norm(self.grid.nodes[act] - ref[None, :], axis=1)
+        return int(act[np.argmin(d)])
+
+    def body_force_density(self, ctx: StepContext) -> np.ndarray:
+        f = self.spec.body_force_function
+        fn = (lambda t: 1.0) if f is None else f
+        return self.rho * self.spec.body_force * (ctx.w_new * fn(ctx.t_new) + ctx.w_old * fn(ctx.t_old))
+
+    # ----------------------------------------------------------------- time stepping
+    def begin_step(self, ctx: StepContext) -> None:
+        self.Vbar = self.Vn.copy()
+
+    def end_step(self, ctx: StepContext) -> None:
+        self.Vn = self.V.copy()
+        self.Pn = self.P.copy()
+
+    # ----------------------------------------------------------------- assembly
+    def cell_parameters(self, ctx: StepContext) -> np.ndarray:
+        mass = 0.0 if ctx.static else self.rho / ctx.dt
+        theta = 1.0 if ctx.static else ctx.theta
+        return np.array([self.rho, self.mu, self.sym, mass, theta])
+
+    def face_parameters(self, ctx: StepContext) -> np.ndarray:
+        gu, gp, gdiv, ggp, ggpt = self.stab
+        return np.array([self.rho, self.mu, gu, gp, gdiv, ggp, ggpt, 0.0 if ctx.static else 1.0 / ctx.dt])
+
+    def assemble(self, asm: Assembly, ctx: StepContext, body_force_q: np.ndarray | None = None) -> None:
+        g = self.grid
+        tgt = asm.target()
+        if body_force_q is None:
+            body_force_q = np.broadcast_to(self.body_force_density(ctx), self.qx.shape).copy()
+        conn = self.gnode[g.cells[self.int_cells]]
+        Vo = self.Vn if not ctx.static else self.V
+        fk.assemble_fluid_cells(g.xs, g.ys, g.nx, g.cells, self.int_cells, self.qptr, self.qx, self.qw,
+                                body_force_q, self.V, self.P, Vo, self.cell_parameters(ctx), self.gnode,
+                                asm.positions(conn), *tgt)
+        fk.assemble_fluid_faces(g.xs, g.ys, g.nx, g.cells, self.faces, self.ghost, self.Vbar, self.V, self.P,
+                                self.face_parameters(ctx), self.gnode, asm.positions(self.gnode[self.face_nodes]),
+                                *tgt)
+        self._assemble_neumann(asm, ctx)
+
+    def _assemble_neumann(self, asm: Assembly, ctx: StepContext) -> None:
+        if not self._neumann:
+            return
+        gx = np.array([-1.0, 1.0]) / np.sqrt(3.0)
+        X = self.grid.nodes
+        start = asm.layout.start
+        for edges, normal, nm in self._neumann:
+            a, b = edges[:, 0], edges[:, 1]
+            length = np.linalg.norm(X[b] - X[a], axis=1)
+            for s in gx:
+                Na, Nb = 0.5 * (1 - s), 0.5 * (1 + s)
+                p = Na * X[a] + Nb * X[b]
+                traction = np.zeros((len(edges), 2))
+                for t, w in ((ctx.t_new, ctx.w_new), (ctx.t_old, ctx.w_old)):
+                    if w == 0.0:
+                        continue
+                    f = nm.function(t) * w
+                    if nm.kind == "traction":
+                        traction[:, 0] += nm.values[0](p[:, 0], p[:, 1], t) * f
+                        traction[:, 1] += nm.values[1](p[:, 0], p[:, 1], t) * f
+                    else:  # pressure: h = -p n (compressive normal traction)
+                        pv = nm.values[0](p[:, 0], p[:, 1], t) * f
+                        traction -= pv[:, None] * normal[None, :]
+                wl = 0.5 * length
+                for node, Nn in ((a, Na), (b, Nb)):
+                    ok = self.active[node]
+                    dof = start[self.gnode[node[ok]]]
+                    for c in range(2):
+                        np.add.at(asm.rhs, dof + c, -(wl * Nn * traction[:, c])[ok])

@@ -1,0 +1,184 @@
+"""Quad meshes from gmsh: meshing 2D outlines and importing ``.msh`` files.
+
+* :func:`mesh_outline` meshes a region bounded by closed loops of lines and circular arcs
+  with quadrilaterals (gmsh recombination + subdivision, so every cell is a quad); each piece
+  of the outline may carry a name, which becomes an edge set and a node set.
+* :func:`read_msh` imports a gmsh file through meshio; physical groups of dimension 1 become
+  edge and node sets, physical groups of dimension 2 are ignored except that all quads are
+  kept.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from fsci.errors import InputError, MeshError
+from fsci.mesh.quadmesh import QuadMesh
+
+
+def _orient_edge_sets(mesh: QuadMesh, raw: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Orient named edges like the mesh boundary (cell on the left); drop interior edges."""
+    bnd = mesh.boundary.edges
+    lookup = {(int(a), int(b)) for a, b in bnd}
+    out = {}
+    for name, edges in raw.items():
+        oriented = []
+        for a, b in np.asarray(edges).reshape(-1, 2):
+            a, b = int(a), int(b)
+            if (a, b) in lookup:
+                oriented.append((a, b))
+            elif (b, a) in lookup:
+                oriented.append((b, a))
+        if oriented:
+            out[name] = np.array(oriented, dtype=np.int64)
+    return out
+
+
+def _compact(nodes: np.ndarray, cells: np.ndarray, edge_sets: dict[str, np.ndarray]) -> QuadMesh:
+    """Drop nodes not used by any cell and renumber."""
+    used = np.unique(cells)
+    new = -np.ones(len(nodes), dtype=np.int64)
+    new[used] = np.arange(len(used))
+    mesh = QuadMesh(nodes[used], new[cells]).oriented()
+    sets = {k: new[v] for k, v in edge_sets.items() if np.all(new[v] >= 0)}
+    mesh.edge_sets = _orient_edge_sets(mesh, sets)
+    mesh.edge_sets["all"] = mesh.boundary.edges.copy()
+    mesh.node_sets = {k: np.unique(v) for k, v in mesh.edge_sets.items()}
+    mesh.check("gmsh mesh")
+    return mesh
+
+
+def mesh_outline(loops: Sequence[Sequence[Mapping[str, Any]]], h: float, *, algorithm: int = 8) -> QuadMesh:
+    """Mesh a 2D region bounded by closed loops of lines and arcs with quads.
+
+    Parameters
+    ----------
+    loops
+        First loop is the outer boundary, further loops are holes. Each loop is a list of
+        pieces, consecutive pieces sharing end points:
+        ``{"line": [[x0, y0], [x1, y1]], "name": "top"}`` or
+        ``{"arc": {"start": [..], "center": [..], "end": [..]}, "name": "round"}``
+        (arcs spanning less than 180°; the shorter arc is taken).
+    h
+        Target element size.
+    algorithm
+        gmsh 2D algorithm (8 = Frontal-Delaunay for quads).
+
+    Returns
+    -------
+    QuadMesh
+        With edge/node sets for every named piece and ``all``.
+    """
+    import gmsh
+
+    if not (h > 0 and math.isfinite(h)):
+        raise InputError("h", h, "a positive element size")
+    if not loops:
+        raise InputError("loops", loops, "at least one closed loop")
+    initialized_here = not gmsh.isInitialized()
+    if initialized_here:
+        gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("fsci_outline")
+        geo = gmsh.model.geo
+        point_tags: dict[tuple[float, float], int] = {}
+
+        def point(p) -> int:
+            key = (round(float(p[0]), 12), round(float(p[1]), 12))
+            if key not in point_tags:
+                point_tags[key] = geo.addPoint(float(p[0]), float(p[1]), 0.0, h)
+            return point_tags[key]
+
+        names: dict[str, list[int]] = defaultdict(list)
+        loop_tags = []
+        for li, loop in enumerate(loops):
+            curve_tags = []
+            for pi, piece in enumerate(loop):
+                field = f"loops[{li}][{pi}]"
+                if "line" in piece:
+                    p0, p1 = piece["line"]
+                    tag = geo.addLine(point(p0), point(p1))
+                elif "arc" in piece:
+                    arc = piece["arc"]
+                    s, c, e = (np.asarray(arc[k], float) for k in ("start", "center", "end"))
+                    r0, r1 = np.linalg.norm(s - c), np.linalg.norm(e - c)
+                    if abs(r0 - r1) > 1e-9 * max(r0, 1.0):
+                        raise InputError(field + ".arc", arc, "start and end must be equidistant from center")
+                    tag = geo.addCircleArc(point(s), point(c), point(e))
+                else:
+                    raise InputError(field, dict(piece), "a piece needs 'line' or 'arc'")
+                curve_tags.append(tag)
+                if "name" in piece:
+                    names[str(piece["name"])].append(tag)
+            loop_tags.append(geo.addCurveLoop(curve_tags, reorient=True))
+        surf = geo.addPlaneSurface(loop_tags)
+        geo.synchronize()
+        for name, tags in names.items():
+            gmsh.model.addPhysicalGroup(1, tags, name=name)
+        gmsh.model.addPhysicalGroup(2, [surf], name="domain")
+        gmsh.option.setNumber("Mesh.Algorithm", algorithm)
+        gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        gmsh.option.setNumber("Mesh.RecombinationAlgorithm", 1)
+        gmsh.option.setNumber("Mesh.SubdivisionAlgorithm", 1)
+        gmsh.option.setNumber("Mesh.MeshSizeFactor", 1.0)
+        # subdivision halves the size; compensate so the final size is about h
+        gmsh.option.setNumber("Mesh.MeshSizeMin", 2 * h)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 2 * h)
+        gmsh.model.mesh.generate(2)
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        nodes_all = coords.reshape(-1, 3)[:, :2]
+        index = -np.ones(int(tags.max()) + 1, dtype=np.int64)
+        index[tags.astype(np.int64)] = np.arange(len(tags))
+        etypes, _, enodes = gmsh.model.mesh.getElements(2)
+        quads = [np.asarray(n, dtype=np.int64).reshape(-1, 4) for t, n in zip(etypes, enodes) if t == 3]
+        if not quads or any(t != 3 for t in etypes):
+            raise MeshError("gmsh did not produce an all-quad mesh")
+        cells = index[np.vstack(quads)]
+        edge_sets = {}
+        for name, ctags in names.items():
+            edges = []
+            for ct in ctags:
+                lt, _, ln = gmsh.model.mesh.getElements(1, ct)
+                for t, n in zip(lt, ln):
+                    if t == 1:
+                        edges.append(index[np.asarray(n, dtype=np.int64).reshape(-1, 2)])
+            edge_sets[name] = np.vstack(edges)
+    finally:
+        gmsh.model.remove()
+        if initialized_here:
+            gmsh.finalize()
+    return _compact(nodes_all, cells, edge_sets)
+
+
+def read_msh(path: str) -> QuadMesh:
+    """Import a quad mesh from a gmsh ``.msh`` file via meshio.
+
+    Physical groups of lines become edge/node sets named after the group (or ``group<tag>``
+    when unnamed); all quad cells form the mesh.
+    """
+    import meshio
+
+    try:
+        m = meshio.read(path)
+    except Exception as exc:  # meshio raises a variety of errors for bad files
+        raise InputError("mesh.file", str(path), f"a readable gmsh .msh file ({exc})") from exc
+    names_by_tag = {int(v[0]): k for k, v in (m.field_data or {}).items() if len(v) > 1 and int(v[1]) == 1}
+    quads, edges = [], defaultdict(list)
+    phys = m.cell_data.get("gmsh:physical")
+    for bi, block in enumerate(m.cells):
+        if block.type == "quad":
+            quads.append(block.data)
+        elif block.type == "line" and phys is not None:
+            for tag in np.unique(phys[bi]):
+                name = names_by_tag.get(int(tag), f"group{int(tag)}")
+                edges[name].append(block.data[phys[bi] == tag])
+        elif block.type not in ("vertex", "line", "quad"):
+            raise InputError("mesh.file", str(path), f"only quad cells are supported, found {block.type}")
+    if not quads:
+        raise InputError("mesh.file", str(path), "the file contains no quad cells")
+    return _compact(np.asarray(m.points)[:, :2], np.vstack(quads), {k: np.vstack(v) for k, v in edges.items()})

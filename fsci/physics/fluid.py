@@ -1,0 +1,286 @@
+"""Incompressible Navier-Stokes on the rectilinear background grid (FORMULATION (22), §4.2).
+
+Unknowns per ACTIVE node: ``v_x, v_y, p``. One-step-theta residual (momentum, continuity)::
+
+    R_v = rho/dt (v - v_n, dv) + theta a(v; dv) + (1 - theta) a(v_n; dv) - (p, div dv) - (f, dv)
+    R_p = (div v, dp) + s_p(p, dp)
+    a(v; dv) = (rho v.grad v, dv) + (mu (grad v + s grad v^T), grad dv)
+
+``s = 1`` is the symmetric (2 mu eps) form of (22), ``s = 0`` the Laplace form whose natural
+outflow condition is the DFG/Turek "do-nothing" condition ``nu d_n v - p n = 0``.
+
+Cells are integrated with whatever quadrature the caller passes (tensor Gauss on uncut cells,
+polygon rules on the PHYSICAL part of cut cells): the kernel never cuts anything.
+
+Face stabilisation (25), (26) on interior faces between ACTIVE cells, with 4C's
+``Schott_Massing_Burman_DAngelo_Zunino`` scalings (see docs/architecture.md)::
+
+    s(v, p; dv, dp) = sum_F ∫_F tau_v [[d_n v]].[[d_n dv]] + tau_div [[div v]][[div dv]]
+                               + tau_p [[d_n p]][[d_n dp]]
+    regime = nu + 10 h |u|_max + h^2/(12 dt)
+    tau_u = rho gamma_u |u.n|^2 h^3 / regime,  tau_div = rho gamma_div regime h,
+    tau_p = gamma_p h^3 / (rho regime),  tau_gp = gamma_gp rho nu h + gamma_gp,t rho h^3/dt
+    tau_v = tau_u (+ tau_gp on ghost-penalty faces)
+
+For continuous Q1 functions on straight faces only the normal derivative jumps, so the full
+gradient jump [[grad v]] of 4C equals [[d_n v]] ⊗ n. The velocities in the scalings are a
+*frozen* field (the state at the start of the step, or of the outer iteration for steady
+problems), so the face terms are linear and their Jacobian is exact.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from fsci.fem.q1 import q1_shape
+from fsci.fem.sparse import add_local
+
+# indices into the parameter vector of the cell kernel
+P_RHO, P_MU, P_SYM, P_MASS, P_THETA = range(5)
+# indices into the parameter vector of the face kernel
+S_RHO, S_MU, S_GU, S_GP, S_GDIV, S_GGP, S_GGPT, S_DTINV = range(8)
+
+
+@njit(cache=True, inline="always")
+def _cell_geometry(xs, ys, nx, c):
+    i = c % nx
+    j = c // nx
+    return xs[i], ys[j], xs[i + 1] - xs[i], ys[j + 1] - ys[j]
+
+
+@njit(cache=True)
+def assemble_fluid_cells(xs, ys, nx, gcells, cell_ids, qptr, qx, qw, bq, V, P, Vo, prm,
+                         gnode, pos, data, rhs, row_base, row_len, start, ndof, want_matrix):
+    """Add the Galerkin terms of (22) for the cells ``cell_ids``.
+
+    ``qx[qptr[k]:qptr[k+1]]`` are the physical quadrature points of cell ``cell_ids[k]`` with
+    weights ``qw`` and body force density ``bq`` (already multiplied by rho and time-weighted).
+    ``V, P`` are the current and ``Vo`` the previous velocity on all background nodes.
+    """
+    rho = prm[P_RHO]
+    mu = prm[P_MU]
+    sym = prm[P_SYM]
+    mc = prm[P_MASS]
+    th = prm[P_THETA]
+    N = np.empty(4)
+    dN = np.empty((4, 2))
+    dNx = np.empty((4, 2))
+    Ke = np.empty((12, 12))
+    Re = np.empty(12)
+    nodes = np.empty(4, dtype=np.int64)
+    Ve = np.empty((4, 2))
+    Voe = np.empty((4, 2))
+    Pe = np.empty(4)
+    gv = np.empty((2, 2))
+    gvo = np.empty((2, 2))
+    for k in range(len(cell_ids)):
+        c = cell_ids[k]
+        x0, y0, hx, hy = _cell_geometry(xs, ys, nx, c)
+        for a in range(4):
+            n = gcells[c, a]
+            nodes[a] = gnode[n]
+            Ve[a, 0] = V[n, 0]
+            Ve[a, 1] = V[n, 1]
+            Voe[a, 0] = Vo[n, 0]
+            Voe[a, 1] = Vo[n, 1]
+            Pe[a] = P[n]
+        Ke[:] = 0.0
+        Re[:] = 0.0
+        for q in range(qptr[k], qptr[k + 1]):
+            r = 2.0 * (qx[q, 0] - x0) / hx - 1.0
+            s = 2.0 * (qx[q, 1] - y0) / hy - 1.0
+            q1_shape(r, s, N, dN)
+            for a in range(4):
+                dNx[a, 0] = dN[a, 0] * 2.0 / hx
+                dNx[a, 1] = dN[a, 1] * 2.0 / hy
+            w = qw[q]
+            v0 = 0.0
+            v1 = 0.0
+            vo0 = 0.0
+            vo1 = 0.0
+            p = 0.0
+            gv[:] = 0.0
+            gvo[:] = 0.0
+            for a in range(4):
+                v0 += N[a] * Ve[a, 0]
+                v1 += N[a] * Ve[a, 1]
+                vo0 += N[a] * Voe[a, 0]
+                vo1 += N[a] * Voe[a, 1]
+                p += N[a] * Pe[a]
+                for i in range(2):
+                    for j in range(2):
+                        gv[i, j] += Ve[a, i] * dNx[a, j]
+                        gvo[i, j] += Voe[a, i] * dNx[a, j]
+            div = gv[0, 0] + gv[1, 1]
+            conv0 = v0 * gv[0, 0] + v1 * gv[0, 1]
+            conv1 = v0 * gv[1, 0] + v1 * gv[1, 1]
+            convo0 = vo0 * gvo[0, 0] + vo1 * gvo[0, 1]
+            convo1 = vo0 * gvo[1, 0] + vo1 * gvo[1, 1]
+            for a in range(4):
+                ra = 3 * a
+                # momentum
+                for i in range(2):
+                    vi = v0 if i == 0 else v1
+                    voi = vo0 if i == 0 else vo1
+                    ci = conv0 if i == 0 else conv1
+                    coi = convo0 if i == 0 else convo1
+                    visc = 0.0
+                    visco = 0.0
+                    for j in range(2):
+                        visc += (gv[i, j] + sym * gv[j, i]) * dNx[a, j]
+                        visco += (gvo[i, j] + sym * gvo[j, i]) * dNx[a, j]
+                    Re[ra + i] += w * (
+                        mc * (vi - voi) * N[a]
+                        + th * (rho * ci * N[a] + mu * visc)
+                        + (1.0 - th) * (rho * coi * N[a] + mu * visco)
+                        - p * dNx[a, i]
+                        - bq[q, i] * N[a]
+                    )
+                # continuity
+                Re[ra + 2] += w * div * N[a]
+            if want_matrix:
+                for a in range(4):
+                    ra = 3 * a
+                    for b in range(4):
+                        cb = 3 * b
+                        adv = v0 * dNx[b, 0] + v1 * dNx[b, 1]
+                        lap = dNx[a, 0] * dNx[b, 0] + dNx[a, 1] * dNx[b, 1]
+                        diag = mc * N[a] * N[b] + th * (rho * adv * N[a] + mu * lap)
+                        for i in range(2):
+                            Ke[ra + i, cb + i] += w * diag
+                            for kk in range(2):
+                                Ke[ra + i, cb + kk] += w * th * (
+                                    rho * N[b] * gv[i, kk] * N[a] + mu * sym * dNx[b, i] * dNx[a, kk]
+                                )
+                            Ke[ra + i, cb + 2] -= w * N[b] * dNx[a, i]
+                            Ke[ra + 2, cb + i] += w * dNx[b, i] * N[a]
+        add_local(data, rhs, row_base, row_len, start, ndof, nodes, pos[k], Ke, Re, want_matrix)
+
+
+@njit(cache=True, inline="always")
+def _face_union(gcells, cl, cr, d, fn, rmap):
+    for a in range(4):
+        fn[a] = gcells[cl, a]
+    if d == 0:
+        rmap[0] = 1
+        rmap[1] = 4
+        rmap[2] = 5
+        rmap[3] = 2
+        fn[4] = gcells[cr, 1]
+        fn[5] = gcells[cr, 2]
+    else:
+        rmap[0] = 3
+        rmap[1] = 2
+        rmap[2] = 4
+        rmap[3] = 5
+        fn[4] = gcells[cr, 2]
+        fn[5] = gcells[cr, 3]
+
+
+@njit(cache=True)
+def face_nodes(gcells, faces):
+    """Background node ids of the two cells of each face, ``(n_faces, 6)``, in kernel order."""
+    out = np.empty((faces.shape[0], 6), dtype=np.int64)
+    fn = np.empty(6, dtype=np.int64)
+    rmap = np.empty(4, dtype=np.int64)
+    for f in range(faces.shape[0]):
+        _face_union(gcells, faces[f, 0], faces[f, 1], faces[f, 2], fn, rmap)
+        out[f] = fn
+    return out
+
+
+@njit(cache=True)
+def assemble_fluid_faces(xs, ys, nx, gcells, faces, ghost, Vbar, V, P, prm, gnode, pos,
+                         data, rhs, row_base, row_len, start, ndof, want_matrix):
+    """Add CIP (25) and ghost-penalty (26) face terms; ``ghost[f]`` marks ghost-penalty faces."""
+    rho = prm[S_RHO]
+    mu = prm[S_MU]
+    nu = mu / rho
+    gq = np.array([-1.0 / np.sqrt(3.0), 1.0 / np.sqrt(3.0)])
+    N = np.empty(4)
+    dN = np.empty((4, 2))
+    fn = np.empty(6, dtype=np.int64)
+    rmap = np.empty(4, dtype=np.int64)
+    nodes = np.empty(6, dtype=np.int64)
+    J = np.empty(6)
+    NL = np.empty(4)
+    Ke = np.empty((18, 18))
+    Re = np.empty(18)
+    for f in range(faces.shape[0]):
+        cl = faces[f, 0]
+        cr = faces[f, 1]
+        d = faces[f, 2]
+        _face_union(gcells, cl, cr, d, fn, rmap)
+        for a in range(6):
+            nodes[a] = gnode[fn[a]]
+        xl, yl, hxl, hyl = _cell_geometry(xs, ys, nx, cl)
+        xr, yr, hxr, hyr = _cell_geometry(xs, ys, nx, cr)
+        if d == 0:
+            h = max(hxl, hxr)
+            flen = hyl
+            nvec0 = 1.0
+            nvec1 = 0.0
+        else:
+            h = max(hyl, hyr)
+            flen = hxl
+            nvec0 = 0.0
+            nvec1 = 1.0
+        umax = 0.0
+        for a in range(6):
+            umax = max(umax, abs(Vbar[fn[a], 0]), abs(Vbar[fn[a], 1]))
+        regime = nu + 10.0 * h * umax + h * h / 12.0 * prm[S_DTINV]
+        tau_div = rho * prm[S_GDIV] * regime * h
+        tau_p = prm[S_GP] * h ** 3 / (rho * regime)
+        tau_gp = 0.0
+        if ghost[f]:
+            tau_gp = prm[S_GGP] * rho * nu * h + prm[S_GGPT] * rho * h ** 3 * prm[S_DTINV]
+        Ke[:] = 0.0
+        Re[:] = 0.0
+        for g in range(2):
+            J[:] = 0.0
+            # left/bottom parent: xi = +1 on the face (d=0) or eta = +1 (d=1)
+            if d == 0:
+                q1_shape(1.0, gq[g], N, dN)
+                for a in range(4):
+                    J[a] -= dN[a, 0] * 2.0 / hxl
+                    NL[a] = N[a]
+                q1_shape(-1.0, gq[g], N, dN)
+                for a in range(4):
+                    J[rmap[a]] += dN[a, 0] * 2.0 / hxr
+            else:
+                q1_shape(gq[g], 1.0, N, dN)
+                for a in range(4):
+                    J[a] -= dN[a, 1] * 2.0 / hyl
+                    NL[a] = N[a]
+                q1_shape(gq[g], -1.0, N, dN)
+                for a in range(4):
+                    J[rmap[a]] += dN[a, 1] * 2.0 / hyr
+            un = 0.0
+            for a in range(4):
+                un += NL[a] * (Vbar[fn[a], 0] * nvec0 + Vbar[fn[a], 1] * nvec1)
+            tau_u = rho * prm[S_GU] * un * un * h ** 3 / regime
+            tau_v = tau_u + tau_gp
+            w = 0.5 * flen
+            jv0 = 0.0
+            jv1 = 0.0
+            jp = 0.0
+            for b in range(6):
+                jv0 += J[b] * V[fn[b], 0]
+                jv1 += J[b] * V[fn[b], 1]
+                jp += J[b] * P[fn[b]]
+            jdiv = jv0 * nvec0 + jv1 * nvec1
+            for a in range(6):
+                Re[3 * a] += w * J[a] * (tau_v * jv0 + tau_div * jdiv * nvec0)
+                Re[3 * a + 1] += w * J[a] * (tau_v * jv1 + tau_div * jdiv * nvec1)
+                Re[3 * a + 2] += w * J[a] * tau_p * jp
+            if want_matrix:
+                for a in range(6):
+                    for b in range(6):
+                        jj = w * J[a] * J[b]
+                        Ke[3 * a, 3 * b] += jj * (tau_v + tau_div * nvec0 * nvec0)
+                        Ke[3 * a, 3 * b + 1] += jj * tau_div * nvec0 * nvec1
+                        Ke[3 * a + 1, 3 * b] += jj * tau_div * nvec1 * nvec0
+                        Ke[3 * a + 1, 3 * b + 1] += jj * (tau_v + tau_div * nvec1 * nvec1)
+                        Ke[3 * a + 2, 3 * b + 2] += jj * tau_p
+        add_local(data, rhs, row_base, row_len, start, ndof, nodes, pos[f], Ke, Re, want_matrix)

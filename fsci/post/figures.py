@@ -1,0 +1,67 @@
+"""Matplotlib figures written to ``DIR/figures``: time histories of every scalar quantity and a
+picture of the final state (fluid speed, solids in their deformed configuration)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.collections import PolyCollection  # noqa: E402
+
+
+def history_figures(history: list[dict[str, float]], out_dir: Path) -> list[Path]:
+    """One PNG per quantity column of the history (if there is more than one row)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    if len(history) < 2:
+        return []
+    keys = [k for k in history[0] if k not in ("time", "step", "newton_iterations", "dt")]
+    t = np.array([h["time"] for h in history])
+    paths = []
+    for k in keys:
+        y = np.array([h.get(k, np.nan) for h in history])
+        fig, ax = plt.subplots(figsize=(6, 3.5))
+        ax.plot(t, y, lw=1.2)
+        ax.set_xlabel("time")
+        ax.set_ylabel(k)
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        p = out_dir / f"history_{k}.png"
+        fig.savefig(p, dpi=120)
+        plt.close(fig)
+        paths.append(p)
+    return paths
+
+
+def state_figure(system, path: Path, title: str = "") -> Path:
+    """Fluid speed on the PHYSICAL fluid cells and the deformed solid meshes."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, ax = plt.subplots(figsize=(8, 5))
+    f = system.fluid
+    if f is not None:
+        polys, vals = f.speed_polygons() if hasattr(f, "speed_polygons") else _grid_polygons(f)
+        pc = PolyCollection(polys, array=vals, cmap="viridis", edgecolors="none")
+        ax.add_collection(pc)
+        fig.colorbar(pc, ax=ax, label="|v|", shrink=0.8)
+    for s in system.solids:
+        x = s.X + s.U
+        ax.add_collection(PolyCollection(x[s.mesh.cells], facecolors="lightgray", edgecolors="k", linewidths=0.2))
+    ax.autoscale_view()
+    ax.set_aspect("equal")
+    if title:
+        ax.set_title(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
+
+
+def _grid_polygons(f) -> tuple[np.ndarray, np.ndarray]:
+    g = f.grid
+    cells = f.int_cells
+    polys = g.nodes[g.cells[cells]]
+    speed = np.linalg.norm(f.V, axis=1)
+    return polys, speed[g.cells[cells]].mean(axis=1)

@@ -1,0 +1,237 @@
+"""Reported quantities: evaluated after every step (histories) or once at the end.
+
+Kinds (``[[quantities]]`` in a case file):
+
+``point_displacement``  ``body``, ``point`` (reference coordinates), ``component`` (0/1):
+                        displacement of a material point.
+``pressure_difference`` ``points = [[x1, y1], [x2, y2]]``: p(x1) - p(x2).
+``flow_rate``           ``boundary`` (a side of the fluid box): ∫ v·n dΓ, paper (44).
+``oscillation``         ``of`` (another quantity): over the last full period of its history,
+                        ``<name>_mean``, ``<name>_amplitude``, ``<name>_period``,
+                        ``<name>_frequency`` (Turek-Hron convention).
+``centerline_profiles`` writes ``profiles.csv``: u(x=0.5, y) and v(x, y=0.5) (cavity).
+``vortex_center``       location of the stream-function extremum: ``<name>_x``, ``<name>_y``
+                        (for the cavity: ``vortex_x``, ``vortex_y``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fsci.errors import InputError
+from fsci.fem.q1 import q1_eval
+from fsci.problem import Problem, Quantity
+
+
+def _fluid_interpolate(fluid, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Velocity ``(k, 2)`` and pressure ``(k,)`` at points, from the background Q1 field."""
+    g = fluid.grid
+    cells = g.locate(points)
+    x0 = np.column_stack([g.xs[g.cell_ij[cells, 0]], g.ys[g.cell_ij[cells, 1]]])
+    xi = 2.0 * (points - x0) / g.cell_size[cells] - 1.0
+    N, _ = q1_eval(xi)
+    nodes = g.cells[cells]
+    v = np.einsum("ka,kad->kd", N, fluid.V[nodes])
+    p = np.einsum("ka,ka->k", N, fluid.P[nodes])
+    return v, p
+
+
+class QuantityEvaluator:
+    """Evaluates the quantities of a problem on a :class:`fsci.system.System`."""
+
+    def __init__(self, problem: Problem, system) -> None:
+        self.problem = problem
+        self.system = system
+        self._prepared: dict[str, Any] = {}
+        for q in problem.quantities:
+            self._prepare(q)
+
+    # ----------------------------------------------------------------- setup
+    def _field(self, q: Quantity, key: str) -> str:
+        return f"quantities.{q.name}.{key}"
+
+    def _prepare(self, q: Quantity) -> None:
+        s = self.system
+        if q.kind == "point_displacement":
+            names = [b.name for b in s.solids]
+            body = q.params.get("body")
+            if body not in names:
+                raise InputError(self._field(q, "body"), body, "one of " + ", ".join(names))
+            solid = s.solids[names.index(body)]
+            point = np.asarray(q.params.get("point"), float).reshape(1, 2)
+            cell, xi = solid.mesh.locate(point)
+            if cell[0] < 0:
+                raise InputError(self._field(q, "point"), q.params.get("point"), f"a point inside body '{body}'")
+            comp = q.params.get("component", 0)
+            if comp not in (0, 1):
+                raise InputError(self._field(q, "component"), comp, "0 (x) or 1 (y)")
+            N, _ = q1_eval(xi)
+            self._prepared[q.name] = (solid, solid.mesh.cells[cell[0]], N[0], comp)
+        elif q.kind in ("pressure_difference", "flow_rate", "centerline_profiles", "vortex_center"):
+            if s.fluid is None:
+                raise InputError(self._field(q, "type"), q.kind, "needs a [fluid] table")
+            if q.kind == "flow_rate":
+                side = q.params.get("boundary")
+                if side not in ("left", "right", "bottom", "top"):
+                    raise InputError(self._field(q, "boundary"), side, "left, right, bottom or top")
+        elif q.kind == "oscillation":
+            names = [x.name for x in self.problem.quantities]
+            if q.params.get("of") not in names:
+                raise InputError(self._field(q, "of"), q.params.get("of"), "the name of another quantity")
+
+    # ----------------------------------------------------------------- per step
+    def step_values(self) -> dict[str, float]:
+        """Scalar quantities of the current state (for history.csv)."""
+        out: dict[str, float] = {}
+        s = self.system
+        for q in self.problem.quantities:
+            if q.kind == "point_displacement":
+                solid, nodes, N, comp = self._prepared[q.name]
+                out[q.name] = float(N @ solid.U[nodes, comp])
+            elif q.kind == "pressure_difference":
+                pts = np.asarray(q.params.get("points"), float).reshape(2, 2)
+                _, p = _fluid_interpolate(s.fluid, pts)
+                out[q.name] = float(p[0] - p[1])
+            elif q.kind == "flow_rate":
+                out[q.name] = flow_rate(s.fluid, q.params["boundary"])
+        return out
+
+    # ----------------------------------------------------------------- final
+    def final_values(self, history: list[dict[str, float]], out_dir: Path | None) -> dict[str, float]:
+        """Values reported in results.json (last history row plus end-of-run quantities)."""
+        out: dict[str, float] = dict(self.step_values())
+        for q in self.problem.quantities:
+            if q.kind == "oscillation":
+                series = np.array([[h["time"], h[q.params["of"]]] for h in history if q.params["of"] in h])
+                out.update({f"{q.name}_{k}": v for k, v in oscillation(series[:, 0], series[:, 1]).items()})
+            elif q.kind == "centerline_profiles":
+                prof = centerline_profiles(self.system.fluid, q.params)
+                if out_dir is not None:
+                    write_profiles(out_dir / "profiles.csv", prof)
+            elif q.kind == "vortex_center":
+                x, y, psi = vortex_center(self.system.fluid)
+                out[f"{q.name}_x"] = x
+                out[f"{q.name}_y"] = y
+                out[f"{q.name}_psi"] = psi
+        return out
+
+
+def flow_rate(fluid, side: str) -> float:
+    """∫ v·n dΓ over one side of the box (outward normal), paper (44)."""
+    g = fluid.grid
+    edges = g.side_edges(side)
+    n = g.side_normal(side)
+    X = g.nodes
+    length = np.linalg.norm(X[edges[:, 1]] - X[edges[:, 0]], axis=1)
+    vn = fluid.V[:, 0] * n[0] + fluid.V[:, 1] * n[1]
+    ok = fluid.active[edges[:, 0]] & fluid.active[edges[:, 1]]
+    return float(np.sum((0.5 * length * (vn[edges[:, 0]] + vn[edges[:, 1]]))[ok]))
+
+
+def oscillation(t: np.ndarray, y: np.ndarray) -> dict[str, float]:
+    """Mean, amplitude, period and frequency over the last full period of a signal.
+
+    The period is the spacing of the last two maxima (times refined by a parabola through
+    the three samples around each maximum); mean = (max + min)/2 and amplitude = (max - min)/2
+    over that period (Turek-Hron convention)."""
+    if len(t) < 5:
+        return {"mean": float("nan"), "amplitude": float("nan"), "period": float("nan"), "frequency": float("nan")}
+    idx = [i for i in range(1, len(y) - 1) if y[i] > y[i - 1] and y[i] >= y[i + 1]]
+    if len(idx) < 2:
+        return {"mean": float("nan"), "amplitude": float("nan"), "period": float("nan"), "frequency": float("nan")}
+
+    def refine(i: int) -> tuple[float, float]:
+        t0, t1, t2 = t[i - 1], t[i], t[i + 1]
+        y0, y1, y2 = y[i - 1], y[i], y[i + 1]
+        A = np.array([[t0 ** 2, t0, 1.0], [t1 ** 2, t1, 1.0], [t2 ** 2, t2, 1.0]])
+        a, b, c = np.linalg.solve(A, [y0, y1, y2])
+        if a >= 0:
+            return t1, y1
+        tm = -b / (2 * a)
+        return tm, a * tm ** 2 + b * tm + c
+
+    (ta, ya), (tb, yb) = refine(idx[-2]), refine(idx[-1])
+    window = (t >= t[idx[-2]]) & (t <= t[idx[-1]])
+    ymin = float(np.min(y[window]))
+    j = idx[-2] + int(np.argmin(y[window]))
+    if 0 < j < len(y) - 1:
+        t0, t1, t2 = t[j - 1], t[j], t[j + 1]
+        A = np.array([[t0 ** 2, t0, 1.0], [t1 ** 2, t1, 1.0], [t2 ** 2, t2, 1.0]])
+        a, b, c = np.linalg.solve(A, [y[j - 1], y[j], y[j + 1]])
+        if a > 0:
+            ymin = float(c - b * b / (4 * a))
+    ymax = max(ya, yb)
+    period = tb - ta
+    return {"mean": 0.5 * (ymax + ymin), "amplitude": 0.5 * (ymax - ymin), "period": period,
+            "frequency": 1.0 / period if period > 0 else float("nan")}
+
+
+def centerline_profiles(fluid, params: dict[str, Any]) -> dict[str, np.ndarray]:
+    """u along the vertical line x = xc and v along the horizontal line y = yc (node values)."""
+    g = fluid.grid
+    xc = float(params.get("x", 0.5 * (g.xs[0] + g.xs[-1])))
+    yc = float(params.get("y", 0.5 * (g.ys[0] + g.ys[-1])))
+    ys = g.ys
+    xs = g.xs
+    vy, _ = _fluid_interpolate(fluid, np.column_stack([np.full_like(ys, xc), ys]))
+    vx, _ = _fluid_interpolate(fluid, np.column_stack([xs, np.full_like(xs, yc)]))
+    return {"y": ys, "u": vy[:, 0], "x": xs, "v": vx[:, 1]}
+
+
+def write_profiles(path: Path, prof: dict[str, np.ndarray]) -> None:
+    n = max(len(prof["y"]), len(prof["x"]))
+    with open(path, "w") as fh:
+        fh.write("y,u_at_x_center,x,v_at_y_center\n")
+        for i in range(n):
+            row = []
+            for key in (("y", "u"), ("x", "v")):
+                if i < len(prof[key[0]]):
+                    row += [f"{prof[key[0]][i]:.10g}", f"{prof[key[1]][i]:.10g}"]
+                else:
+                    row += ["", ""]
+            fh.write(",".join(row) + "\n")
+
+
+def stream_function(fluid) -> np.ndarray:
+    """Stream function on the grid nodes, psi(x, y0) = 0, d psi/dy = u (trapezoid along y).
+
+    Averaging with the x-integration of -v from the left wall removes most of the discrete
+    divergence error."""
+    g = fluid.grid
+    u = fluid.V[:, 0].reshape(g.ny + 1, g.nx + 1)
+    v = fluid.V[:, 1].reshape(g.ny + 1, g.nx + 1)
+    dy = np.diff(g.ys)[:, None]
+    dx = np.diff(g.xs)[None, :]
+    psi_y = np.vstack([np.zeros((1, g.nx + 1)), np.cumsum(0.5 * dy * (u[1:] + u[:-1]), axis=0)])
+    psi_x = np.hstack([np.zeros((g.ny + 1, 1)), -np.cumsum(0.5 * dx * (v[:, 1:] + v[:, :-1]), axis=1)])
+    return 0.5 * (psi_y + psi_x)
+
+
+def vortex_center(fluid) -> tuple[float, float, float]:
+    """Location and value of the stream-function minimum (primary vortex), refined by a
+    quadratic fit through the 3×3 nodes around the discrete minimum."""
+    g = fluid.grid
+    psi = stream_function(fluid)
+    # the primary vortex is the extremum with the largest magnitude
+    flat = np.argmax(np.abs(psi))
+    j, i = np.unravel_index(flat, psi.shape)
+    sign = np.sign(psi[j, i])
+    j = int(np.clip(j, 1, g.ny - 1))
+    i = int(np.clip(i, 1, g.nx - 1))
+    xs, ys = g.xs[i - 1:i + 2], g.ys[j - 1:j + 2]
+    X, Y = np.meshgrid(xs, ys)
+    Z = psi[j - 1:j + 2, i - 1:i + 2] * sign
+    A = np.column_stack([X.ravel() ** 2, Y.ravel() ** 2, X.ravel() * Y.ravel(), X.ravel(), Y.ravel(), np.ones(9)])
+    a, b, c, d, e, f = np.linalg.lstsq(A, Z.ravel(), rcond=None)[0]
+    H = np.array([[2 * a, c], [c, 2 * b]])
+    try:
+        xc, yc = np.linalg.solve(H, [-d, -e])
+    except np.linalg.LinAlgError:
+        xc, yc = g.xs[i], g.ys[j]
+    if not (xs[0] <= xc <= xs[-1] and ys[0] <= yc <= ys[-1]):
+        xc, yc = g.xs[i], g.ys[j]
+    val = a * xc ** 2 + b * yc ** 2 + c * xc * yc + d * xc + e * yc + f
+    return float(xc), float(yc), float(sign * val)

@@ -1,0 +1,169 @@
+"""Validated description of a problem: bodies, fluid, loads, time grid, solver settings.
+
+Instances are produced by :mod:`fsci.config` from a case file (TOML) or built directly in a
+Python script. Nothing here discretises anything; :mod:`fsci.system` does.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from fsci.expressions import Expression
+from fsci.mesh.grid import Grid
+from fsci.mesh.quadmesh import QuadMesh
+from fsci.timefunc import TimeFunction
+
+
+@dataclass
+class Material:
+    """Hyperelastic solid material: ``law`` in {"neo_hooke", "svk"}."""
+
+    law: str
+    E: float
+    nu: float
+    rho: float
+
+
+@dataclass
+class Dirichlet:
+    """Prescribed values on a node set: ``values[c]`` is ``None`` for a free component.
+
+    Values are expressions in the reference coordinates ``x, y`` and time ``t``, multiplied by
+    the time function."""
+
+    boundary: str
+    values: list[Expression | None]
+    function: TimeFunction
+
+
+@dataclass
+class Neumann:
+    """Load on an edge set: ``kind`` "traction" (vector, per reference length for solids) or
+    "pressure" (scalar, acting against the current outward normal)."""
+
+    boundary: str
+    kind: str
+    values: list[Expression]
+    function: TimeFunction
+
+
+@dataclass
+class Body:
+    """One elastic (or fully prescribed, "rigid") solid body."""
+
+    name: str
+    mesh: QuadMesh
+    material: Material
+    body_force: np.ndarray
+    body_force_function: TimeFunction
+    dirichlet: list[Dirichlet] = field(default_factory=list)
+    neumann: list[Neumann] = field(default_factory=list)
+    interface: list[str] | None = None  # edge sets coupled to the fluid; None = all not loaded/fixed
+    contact: list[str] | None = None  # edge sets that may touch other bodies
+    rigid: bool = False  # every dof prescribed
+
+
+@dataclass
+class Stabilization:
+    """Face stabilisation and Nitsche constants (defaults: 4C values for 2D quads, see docs)."""
+
+    gamma_p: float = 0.25
+    gamma_u: float = 0.25
+    gamma_div: float = 0.00025
+    gamma_gp: float = 0.5
+    gamma_gp_t: float = 0.001
+
+
+@dataclass
+class Fluid:
+    """Incompressible Newtonian fluid on a rectilinear background grid."""
+
+    grid: Grid
+    rho: float
+    mu: float
+    viscous_form: str = "symmetric"  # or "laplace"
+    body_force: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    body_force_function: TimeFunction | None = None
+    dirichlet: list[Dirichlet] = field(default_factory=list)
+    neumann: list[Neumann] = field(default_factory=list)
+    pressure_reference: np.ndarray | None = None  # point where p = 0 is imposed, if needed
+    stabilization: Stabilization = field(default_factory=Stabilization)
+
+
+@dataclass
+class TimeGrid:
+    """Time discretisation: ``kind`` "static" (no inertia, steady flow) or "transient"."""
+
+    kind: str
+    theta: float
+    t_start: float
+    segments: list[tuple[float, float]]  # (end time, dt)
+
+    @property
+    def t_end(self) -> float:
+        return self.segments[-1][0]
+
+
+@dataclass
+class SolverSettings:
+    """Newton, linear solver and step-control settings."""
+
+    max_iterations: int = 25
+    min_iterations: int = 1
+    tol_residual: float = 1e-8
+    tol_increment: float = 1e-8
+    rtol_residual: float = 1e-10
+    damping: bool = True
+    linear: str = "auto"
+    max_step_cuts: int = 6
+    step_cut_factor: float = 0.5
+    dt_min: float = 0.0
+    outer_tol: float = 1e-6  # steady flow: relative change of the frozen stabilisation velocity
+    outer_max: int = 8
+
+
+@dataclass
+class Quantity:
+    """A reported scalar (or profile) with its kind and parameters."""
+
+    name: str
+    kind: str
+    params: dict[str, Any]
+
+
+@dataclass
+class Reference:
+    """A reference value the run should reproduce within a relative tolerance."""
+
+    name: str
+    value: float
+    rtol: float
+    source: str = ""
+
+
+@dataclass
+class Output:
+    """What to write: VTU every ``every`` steps (0 = only the last), figures on/off."""
+
+    every: int = 1
+    figures: bool = True
+    fields: bool = True
+
+
+@dataclass
+class Problem:
+    """Complete problem description."""
+
+    name: str
+    description: str
+    bodies: list[Body]
+    fluid: Fluid | None
+    time: TimeGrid
+    solver: SolverSettings
+    quantities: list[Quantity]
+    references: list[Reference]
+    output: Output
+    source: dict[str, Any]  # the (overridden) case dictionary it was read from

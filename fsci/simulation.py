@@ -1,0 +1,220 @@
+"""The time loop: steps, Newton with step-size cuts, outputs, quantities and results.
+
+A failing Newton solve restores the state of the step start and retries with a smaller step
+(``solver.step_cut_factor``, at most ``solver.max_step_cuts`` times, never below
+``solver.dt_min``); after success the step grows back towards the scheduled size. If the step
+cannot be completed, the results computed so far are written and
+:class:`fsci.errors.SolverError` is raised.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import time
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from fsci import __version__
+from fsci.errors import SolverError
+from fsci.fields import StepContext
+from fsci.post.quantities import QuantityEvaluator
+from fsci.problem import Problem
+from fsci.solver.linear import make_linear_solver
+from fsci.solver.newton import NewtonReport, solve_nonlinear
+from fsci.system import System, restore, snapshot
+
+EPS_T = 1e-12
+
+
+class Simulation:
+    """Runs a :class:`Problem` and writes its outputs into ``out_dir`` (if given)."""
+
+    def __init__(self, problem: Problem, out_dir: Path | None = None, monitor=None) -> None:
+        self.problem = problem
+        self.out_dir = Path(out_dir) if out_dir is not None else None
+        self.system = System(problem)
+        self.linear = make_linear_solver(problem.solver.linear)
+        self.quantities = QuantityEvaluator(problem, self.system)
+        self.monitor = monitor
+        self.history: list[dict[str, float]] = []
+        self.t = problem.time.t_start
+        self.step = 0
+        self.newton_total = 0
+        self.dt_current: float | None = None
+        self.wall_start = time.perf_counter()
+        self.writer = None
+        self.step_hooks: list[Callable[["Simulation", StepContext, NewtonReport], None]] = []
+        self.failure_hook: Callable[["Simulation", StepContext], None] | None = None
+
+    # ----------------------------------------------------------------- stepping
+    def nominal_dt(self, t: float) -> tuple[float, float]:
+        """Scheduled step size at time ``t`` and the end of its segment."""
+        for end, dt in self.problem.time.segments:
+            if t < end - EPS_T * max(1.0, abs(end)):
+                return dt, end
+        end, dt = self.problem.time.segments[-1]
+        return dt, end
+
+    def next_dt(self) -> float:
+        dt_nom, seg_end = self.nominal_dt(self.t)
+        dt = dt_nom if self.dt_current is None else min(dt_nom, self.dt_current)
+        remaining = seg_end - self.t
+        if dt >= remaining * (1 - 1e-9) or remaining - dt < 1e-6 * dt_nom:
+            dt = remaining
+        return dt
+
+    def solve_step(self, ctx: StepContext) -> NewtonReport:
+        """Newton for one step; for steady flow with outer updates of the frozen velocity."""
+        sys = self.system
+        rep = solve_nonlinear(sys, ctx, self.problem.solver, self.linear, self._newton_monitor(ctx))
+        if not (ctx.static and sys.fluid is not None and rep.converged):
+            return rep
+        its = rep.iterations
+        for _ in range(self.problem.solver.outer_max):
+            f = sys.fluid
+            change = np.linalg.norm(f.V - f.Vbar) / max(np.linalg.norm(f.V), 1e-300)
+            if change <= self.problem.solver.outer_tol:
+                break
+            f.Vbar = f.V.copy()
+            rep = solve_nonlinear(sys, ctx, self.problem.solver, self.linear, self._newton_monitor(ctx))
+            its += rep.iterations
+            if not rep.converged:
+                return rep
+        rep.iterations = its
+        return rep
+
+    def _newton_monitor(self, ctx: StepContext):
+        if self.monitor is None:
+            return None
+        return lambda it, res, lam: self.monitor.iteration(self, ctx, it, res, lam)
+
+    def advance(self) -> StepContext:
+        """Take one step (with retries); returns the completed step's context."""
+        p = self.problem
+        static = p.time.kind == "static"
+        dt = self.next_dt()
+        cuts = 0
+        while True:
+            saved = snapshot(self.system)
+            ctx = StepContext(self.t, self.t + dt, dt, p.time.theta, static)
+            self.system.begin_step(ctx)
+            rep = self.solve_step(ctx)
+            self.newton_total += rep.iterations
+            if rep.converged:
+                break
+            restore(self.system, saved)
+            cuts += 1
+            new_dt = dt * p.solver.step_cut_factor
+            if self.monitor is not None:
+                self.monitor.message(f"step {self.step + 1} at t={self.t:.6g}: {rep.reason}; "
+                                     f"retrying with dt={new_dt:.4g}")
+            if cuts > p.solver.max_step_cuts or new_dt < p.solver.dt_min:
+                if self.failure_hook is not None:
+                    self.failure_hook(self, ctx)
+                raise SolverError(f"step {self.step + 1} at t = {self.t:.6g} failed after {cuts - 1} step cuts "
+                                  f"(dt = {dt:.4g}): {rep.reason}")
+            dt = new_dt
+        self.system.end_step(ctx)
+        self.t = ctx.t_new
+        self.step += 1
+        dt_nom, _ = self.nominal_dt(self.t - 0.5 * dt)
+        self.dt_current = None if cuts == 0 and self.dt_current is None else min(dt_nom, dt / p.solver.step_cut_factor)
+        if self.dt_current is not None and self.dt_current >= dt_nom:
+            self.dt_current = None
+        row = {"time": self.t, "step": self.step, "dt": dt, "newton_iterations": rep.iterations}
+        row.update(self.quantities.step_values())
+        self.history.append(row)
+        for hook in self.step_hooks:
+            hook(self, ctx, rep)
+        return ctx
+
+    def finished(self) -> bool:
+        t_end = self.problem.time.t_end
+        return self.t >= t_end - EPS_T * max(1.0, abs(t_end))
+
+    # ----------------------------------------------------------------- run
+    def run(self) -> dict:
+        """Run to the end time and write all outputs; returns the results dictionary."""
+        from fsci.io.vtk import VTKWriter
+
+        if self.out_dir is not None:
+            self.out_dir.mkdir(parents=True, exist_ok=True)
+            if self.problem.output.fields and self.writer is None:
+                self.writer = VTKWriter(self.out_dir)
+                if self.step == 0:
+                    self.writer.write(self.system, self.t)
+        if self.monitor is not None:
+            self.monitor.start(self)
+        every = self.problem.output.every
+        try:
+            while not self.finished():
+                self.advance()
+                if self.monitor is not None:
+                    self.monitor.step_done(self)
+                if self.writer is not None and every > 0 and self.step % every == 0:
+                    self.writer.write(self.system, self.t)
+        finally:
+            if self.monitor is not None:
+                self.monitor.stop(self)
+            if self.out_dir is not None:
+                self.write_history()
+        if self.writer is not None and (every == 0 or self.step % every != 0):
+            self.writer.write(self.system, self.t)
+        return self.finalize()
+
+    def results(self) -> dict:
+        values = self.quantities.final_values(self.history, self.out_dir)
+        res: dict = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in values.items()}
+        checks = []
+        for r in self.problem.references:
+            got = res.get(r.name)
+            ok = got is not None and abs(got - r.value) <= r.rtol * abs(r.value)
+            checks.append({"name": r.name, "value": got, "reference": r.value, "rtol": r.rtol,
+                           "rel_error": None if got is None else abs(got - r.value) / abs(r.value),
+                           "pass": bool(ok), "source": r.source})
+        if checks:
+            res["reference_checks"] = checks
+        res["run"] = {
+            "version": __version__,
+            "case": self.problem.name,
+            "wall_time": time.perf_counter() - self.wall_start,
+            "steps": self.step,
+            "newton_iterations": self.newton_total,
+            "linear_solver": self.linear.name,
+            "unknowns": self.system.layout.n_dofs,
+            "final_time": self.t,
+        }
+        return res
+
+    def finalize(self) -> dict:
+        res = self.results()
+        if self.out_dir is not None:
+            (self.out_dir / "results.json").write_text(json.dumps(res, indent=2) + "\n")
+            if self.problem.output.figures:
+                from fsci.post.figures import history_figures, state_figure
+
+                fig_dir = self.out_dir / "figures"
+                history_figures(self.history, fig_dir)
+                state_figure(self.system, fig_dir / "final_state.png", f"{self.problem.name}, t = {self.t:.4g}")
+                extra = getattr(self.problem, "figure_hooks", None)
+                for hook in extra or []:
+                    hook(self, fig_dir)
+        return res
+
+    def write_history(self) -> None:
+        if not self.history or self.out_dir is None:
+            return
+        keys: list[str] = []
+        for row in self.history:
+            for k in row:
+                if k not in keys:
+                    keys.append(k)
+        with open(self.out_dir / "history.csv", "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=keys)
+            w.writeheader()
+            for row in self.history:
+                w.writerow({k: (f"{v:.12g}" if isinstance(v, float) else v) for k, v in row.items()})

@@ -1,0 +1,134 @@
+"""Sparse direct solvers behind one small interface.
+
+* :class:`PardisoSolver` (MKL PARDISO through ``pypardiso``): the symbolic analysis (phase 11,
+  about as expensive as the numeric factorisation) is reused while the sparsity pattern is
+  unchanged; only phase 22 (numeric) and 33 (solve) run. The true residual of every solve is
+  checked; if the reused analysis gave an inaccurate solution the analysis is redone.
+* :class:`SuperLUSolver` (scipy): ``permc_spec="MMD_AT_PLUS_A"``, ``SymmetricMode`` and
+  ``diag_pivot_thresh=0.01`` — the three options go together (see ../shared/DESIGN.md).
+
+The interface (``solve(A, b, pattern_key)``) is what a distributed backend (PETSc/MUMPS) would
+implement too.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from fsci.errors import InputError, SolverError
+
+
+class LinearSolver:
+    """Base class: records per-phase timings in ``self.timings``."""
+
+    name = "base"
+
+    def __init__(self) -> None:
+        self.timings = {"analysis": 0.0, "factorization": 0.0, "solve": 0.0}
+        self.counts = {"analysis": 0, "factorization": 0, "solve": 0}
+
+    def _tick(self, phase: str, t0: float) -> None:
+        self.timings[phase] += time.perf_counter() - t0
+        self.counts[phase] += 1
+
+    def solve(self, A: sp.csr_matrix, b: np.ndarray, pattern_key: bytes | None = None) -> np.ndarray:
+        raise NotImplementedError
+
+
+class SuperLUSolver(LinearSolver):
+    name = "superlu"
+
+    def solve(self, A: sp.csr_matrix, b: np.ndarray, pattern_key: bytes | None = None) -> np.ndarray:
+        t0 = time.perf_counter()
+        try:
+            lu = spla.splu(A.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.01,
+                           options={"SymmetricMode": True})
+        except RuntimeError as exc:
+            raise SolverError(f"SuperLU factorisation failed: {exc}") from None
+        self._tick("factorization", t0)
+        t0 = time.perf_counter()
+        x = lu.solve(b)
+        self._tick("solve", t0)
+        if not np.all(np.isfinite(x)):
+            raise SolverError("SuperLU returned non-finite values (singular matrix)")
+        return x
+
+
+class PardisoSolver(LinearSolver):
+    name = "pardiso"
+
+    def __init__(self) -> None:
+        super().__init__()
+        import pypardiso
+
+        self._ps = pypardiso.PyPardisoSolver(mtype=11)
+        self._key: bytes | None = None
+
+    def _phase(self, A: sp.csr_matrix, b: np.ndarray, phase: int) -> np.ndarray:
+        self._ps.set_phase(phase)
+        return self._ps._call_pardiso(A, b)
+
+    def solve(self, A: sp.csr_matrix, b: np.ndarray, pattern_key: bytes | None = None) -> np.ndarray:
+        import pypardiso
+
+        A = A.tocsr()
+        if not A.has_sorted_indices:
+            A.sort_indices()
+        b2 = np.asfortranarray(b.reshape(-1, 1))
+        for attempt in range(2):
+            try:
+                if pattern_key is None or pattern_key != self._key or attempt == 1:
+                    t0 = time.perf_counter()
+                    self._phase(A, b2, 11)
+                    self._tick("analysis", t0)
+                    self._key = pattern_key
+                t0 = time.perf_counter()
+                self._phase(A, b2, 22)
+                self._tick("factorization", t0)
+                t0 = time.perf_counter()
+                x = self._phase(A, b2, 33).ravel()
+                self._tick("solve", t0)
+            except pypardiso.pardiso_wrapper.PyPardisoError as exc:
+                self._key = None
+                if attempt == 1:
+                    raise SolverError(f"PARDISO failed: {exc}") from None
+                continue
+            r = A @ x - b
+            bn = np.linalg.norm(b)
+            if np.all(np.isfinite(x)) and np.linalg.norm(r) <= 1e-8 * max(bn, 1e-300):
+                return x
+            self._key = None  # reused analysis no longer fits the values: redo it
+        if not np.all(np.isfinite(x)):
+            raise SolverError("PARDISO returned non-finite values (singular matrix)")
+        return x
+
+
+def available_backends() -> list[str]:
+    out = []
+    try:
+        import pypardiso  # noqa: F401
+
+        PardisoSolver()
+        out.append("pardiso")
+    except Exception:  # ImportError or missing MKL runtime
+        pass
+    out.append("superlu")
+    return out
+
+
+def make_linear_solver(name: str = "auto") -> LinearSolver:
+    """``"auto"``: PARDISO if it loads, else SuperLU."""
+    if name == "auto":
+        name = available_backends()[0]
+    if name == "pardiso":
+        try:
+            return PardisoSolver()
+        except Exception as exc:
+            raise InputError("solver.linear", name, f"pypardiso/MKL is not usable here ({exc}); use 'superlu'") from None
+    if name == "superlu":
+        return SuperLUSolver()
+    raise InputError("solver.linear", name, "one of auto, pardiso, superlu")

@@ -1,0 +1,110 @@
+"""Monolithic damped Newton (paper (42), Sec. 3.4.1; FORMULATION §5.2).
+
+Damping follows 4C's rule: the factor is 1 at the first iteration of a step, multiplied by
+0.75 when the residual norm grew, and otherwise raised again (divided by 0.875, or reset to 1
+once above 0.875) unless the last three residual norms are non-monotone.
+
+Convergence is checked per field (displacement, velocity, pressure): every residual norm
+``||R_f||_2 <= max(tol_residual, rtol_residual * ||R_f^(0)||_2)`` and every increment norm
+``||dx_f||_inf <= tol_increment``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from fsci.errors import SolverError
+from fsci.fields import StepContext
+from fsci.problem import SolverSettings
+from fsci.solver.linear import LinearSolver
+
+DAMP_DOWN = 0.75
+DAMP_UP = 0.875
+
+
+@dataclass
+class NewtonReport:
+    """Outcome of one nonlinear solve."""
+
+    converged: bool
+    iterations: int
+    residuals: list[float] = field(default_factory=list)
+    field_residuals: list[dict[str, float]] = field(default_factory=list)
+    reason: str = ""
+
+
+def _norms(vec: np.ndarray, dofs: dict[str, np.ndarray], kind: str) -> dict[str, float]:
+    out = {}
+    for name, idx in dofs.items():
+        v = vec[idx]
+        out[name] = float(np.max(np.abs(v))) if kind == "inf" and len(v) else float(np.linalg.norm(v))
+    return out
+
+
+def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: LinearSolver,
+                    monitor: Callable[[int, float, float], None] | None = None) -> NewtonReport:
+    """Solve ``R(x) = 0`` for the current step; the system's state holds the result.
+
+    Returns a report; on failure (no convergence, non-finite values, singular matrix) the
+    state is left as it is and ``converged`` is False — the caller restores and retries.
+    """
+    x = system.gather()
+    lam = 1.0
+    report = NewtonReport(False, 0)
+    r0: dict[str, float] | None = None
+    inc_norms: dict[str, float] | None = None
+    totals: list[float] = []
+    for it in range(1, settings.max_iterations + 2):
+        layout_changed = system.before_iteration(it) if hasattr(system, "before_iteration") else False
+        if layout_changed:
+            x = system.gather()
+        asm = system.assemble(ctx, want_matrix=True)
+        R = asm.rhs
+        if not np.all(np.isfinite(R)):
+            report.reason = "non-finite residual"
+            return report
+        norms = _norms(R, system.field_dofs, "l2")
+        total = float(np.linalg.norm(R))
+        report.residuals.append(total)
+        report.field_residuals.append(norms)
+        if monitor is not None:
+            monitor(it, total, lam)
+        if r0 is None:
+            r0 = norms
+        res_ok = all(norms[f] <= max(settings.tol_residual, settings.rtol_residual * r0[f]) for f in norms)
+        inc_ok = inc_norms is not None and all(v <= settings.tol_increment for v in inc_norms.values())
+        tiny = all(norms[f] <= 1e-3 * settings.tol_residual for f in norms)
+        solves = it - 1
+        if res_ok and (inc_ok or tiny) and solves >= settings.min_iterations and not layout_changed:
+            report.converged = True
+            report.iterations = solves
+            return report
+        if it > settings.max_iterations:
+            break
+        if settings.damping and totals:
+            if total > totals[-1]:
+                lam *= DAMP_DOWN
+            elif len(totals) >= 2 and not (totals[-2] >= totals[-1] >= total):
+                pass  # non-monotone history: keep the factor
+            else:
+                lam = lam / DAMP_UP if lam < DAMP_UP else 1.0
+        totals.append(total)
+        try:
+            dx = linear.solve(asm.matrix(), -R, asm.pattern.key)
+        except SolverError as exc:
+            report.reason = str(exc)
+            report.iterations = solves
+            return report
+        if not np.all(np.isfinite(dx)):
+            report.reason = "non-finite Newton increment"
+            report.iterations = solves
+            return report
+        x = x + lam * dx
+        system.scatter(x)
+        inc_norms = _norms(lam * dx, system.field_dofs, "inf")
+        report.iterations = solves + 1
+    report.reason = f"no convergence in {settings.max_iterations} iterations (residual {report.residuals[-1]:.3e})"
+    return report

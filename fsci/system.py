@@ -1,0 +1,213 @@
+"""The monolithic discrete system: unknown layout, assembly of every term, Dirichlet rows.
+
+Unknowns are ``[u of body 0, u of body 1, ..., (v_x, v_y, p) of every ACTIVE fluid node]``
+(FORMULATION §4.1 "one set of fluid dofs per background node"). Dirichlet dofs are set to their
+values at the start of a step and their rows replaced by identity rows, the same way for every
+field; the Newton increments there are zero.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fsci.assembly import Assembly
+from fsci.fem.sparse import DofLayout, PatternCache
+from fsci.fields import FluidField, SolidField, StepContext
+from fsci.problem import Problem
+
+
+class System:
+    """All fields of a problem and the global dof layout."""
+
+    def __init__(self, problem: Problem) -> None:
+        self.problem = problem
+        self.solids = [SolidField(b, i) for i, b in enumerate(problem.bodies)]
+        self.fluid = FluidField(problem.fluid) if problem.fluid is not None else None
+        self.patterns = PatternCache()
+        self.extra_terms: list = []  # interface/contact terms added by later stages
+        self.build_layout()
+
+    # ----------------------------------------------------------------- layout
+    def build_layout(self) -> None:
+        """Number global nodes: solid nodes body by body, then ACTIVE fluid nodes."""
+        ndof = []
+        offset = 0
+        for s in self.solids:
+            s.gnode = offset + np.arange(s.n, dtype=np.int64)
+            offset += s.n
+            ndof.append(np.full(s.n, 2))
+        if self.fluid is not None:
+            f = self.fluid
+            act = np.nonzero(f.active)[0]
+            f.gnode = np.full(f.grid.n_nodes, -1, dtype=np.int64)
+            f.gnode[act] = offset + np.arange(len(act), dtype=np.int64)
+            offset += len(act)
+            ndof.append(np.full(len(act), 3))
+        self.layout = DofLayout(np.concatenate(ndof) if ndof else np.zeros(0, dtype=np.int64))
+        st = self.layout.start
+        disp = [st[s.gnode][:, None] + np.arange(2)[None, :] for s in self.solids]
+        self.field_dofs: dict[str, np.ndarray] = {}
+        if disp:
+            self.field_dofs["displacement"] = np.concatenate([d.ravel() for d in disp])
+        if self.fluid is not None:
+            fdofs = st[self.fluid.gnode[self.fluid.active]]
+            self.field_dofs["velocity"] = np.concatenate([fdofs, fdofs + 1])
+            self.field_dofs["pressure"] = fdofs + 2
+
+    def blocks(self) -> list[np.ndarray]:
+        out = []
+        for s in self.solids:
+            out += s.blocks()
+        if self.fluid is not None:
+            out += self.fluid.blocks()
+        for term in self.extra_terms:
+            out += term.blocks(self)
+        return out
+
+    # ----------------------------------------------------------------- state
+    def gather(self) -> np.ndarray:
+        x = np.zeros(self.layout.n_dofs)
+        st = self.layout.start
+        for s in self.solids:
+            i = st[s.gnode]
+            x[i] = s.U[:, 0]
+            x[i + 1] = s.U[:, 1]
+        if self.fluid is not None:
+            f = self.fluid
+            act = f.active
+            i = st[f.gnode[act]]
+            x[i] = f.V[act, 0]
+            x[i + 1] = f.V[act, 1]
+            x[i + 2] = f.P[act]
+        return x
+
+    def scatter(self, x: np.ndarray) -> None:
+        st = self.layout.start
+        for s in self.solids:
+            i = st[s.gnode]
+            s.U[:, 0] = x[i]
+            s.U[:, 1] = x[i + 1]
+        if self.fluid is not None:
+            f = self.fluid
+            act = f.active
+            i = st[f.gnode[act]]
+            f.V[act, 0] = x[i]
+            f.V[act, 1] = x[i + 1]
+            f.P[act] = x[i + 2]
+
+    # ----------------------------------------------------------------- boundary conditions
+    def dirichlet(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """Global Dirichlet dofs and their values at time ``t`` (incl. a pressure pin)."""
+        dofs, vals = [], []
+        st = self.layout.start
+        for s in self.solids:
+            nodes, comps, v = s.dirichlet_values(t)
+            dofs.append(st[s.gnode[nodes]] + comps)
+            vals.append(v)
+        if self.fluid is not None:
+            f = self.fluid
+            nodes, comps, v = f.dirichlet_values(t)
+            dofs.append(st[f.gnode[nodes]] + comps)
+            vals.append(v)
+            pin = f.pressure_pin()
+            if pin is not None:
+                dofs.append(np.array([st[f.gnode[pin]] + 2]))
+                vals.append(np.zeros(1))
+        if not dofs:
+            return np.zeros(0, dtype=np.int64), np.zeros(0)
+        d = np.concatenate(dofs).astype(np.int64)
+        v = np.concatenate(vals)
+        # the last definition of a dof wins (later conditions override earlier ones)
+        _, last = np.unique(d[::-1], return_index=True)
+        keep = len(d) - 1 - last
+        return d[keep], v[keep]
+
+    def apply_dirichlet_values(self, t: float) -> None:
+        dofs, vals = self.dirichlet(t)
+        x = self.gather()
+        x[dofs] = vals
+        self.scatter(x)
+
+    # ----------------------------------------------------------------- steps
+    def begin_step(self, ctx: StepContext) -> None:
+        for s in self.solids:
+            s.begin_step(ctx)
+        if self.fluid is not None:
+            self.fluid.begin_step(ctx)
+        for term in self.extra_terms:
+            term.begin_step(self, ctx)
+        self.apply_dirichlet_values(ctx.t_new)
+        self.ctx = ctx
+
+    def end_step(self, ctx: StepContext) -> None:
+        for s in self.solids:
+            s.end_step(ctx)
+        if self.fluid is not None:
+            self.fluid.end_step(ctx)
+
+    # ----------------------------------------------------------------- assembly
+    def assemble(self, ctx: StepContext, want_matrix: bool = True, dirichlet: bool = True) -> Assembly:
+        """Residual (and Jacobian) of all terms at the current state."""
+        pattern = self.patterns.get(self.layout, self.blocks()) if want_matrix else None
+        asm = Assembly(self.layout, pattern, want_matrix) if want_matrix else _ResidualOnly(self.layout)
+        for s in self.solids:
+            s.assemble(asm, ctx)
+        if self.fluid is not None:
+            self.fluid.assemble(asm, ctx)
+        for term in self.extra_terms:
+            term.assemble(self, asm, ctx)
+        if dirichlet:
+            asm.apply_dirichlet(self.dirichlet(ctx.t_new)[0])
+        return asm
+
+
+class _ResidualOnly(Assembly):
+    """Residual evaluation without a matrix pattern."""
+
+    def __init__(self, layout: DofLayout) -> None:
+        self.layout = layout
+        self.pattern = None
+        self.want_matrix = False
+        self.data = np.zeros(1)
+        self.rhs = np.zeros(layout.n_dofs)
+
+    def target(self) -> tuple:
+        z = np.zeros(self.layout.n_nodes, dtype=np.int64)
+        return (self.data, self.rhs, z, z, self.layout.start, self.layout.ndof, False)
+
+    def apply_dirichlet(self, dofs: np.ndarray) -> None:
+        self.rhs[dofs] = 0.0
+
+
+def snapshot(system: System) -> dict[str, np.ndarray]:
+    """Copy of every state array of the system (for step retries and checkpoints)."""
+    state: dict[str, np.ndarray] = {}
+    for s in system.solids:
+        for k in ("U", "V", "Un", "Vn"):
+            state[f"solid{s.index}.{k}"] = getattr(s, k).copy()
+    if system.fluid is not None:
+        f = system.fluid
+        for k in ("V", "P", "Vn", "Pn", "Vbar", "active"):
+            state[f"fluid.{k}"] = getattr(f, k).copy()
+    for i, term in enumerate(system.extra_terms):
+        for k, v in term.state().items() if hasattr(term, "state") else []:
+            state[f"term{i}.{k}"] = np.array(v, copy=True)
+    return state
+
+
+def restore(system: System, state: dict[str, np.ndarray]) -> None:
+    """Inverse of :func:`snapshot`; rebuilds the layout if the ACTIVE set differs."""
+    for s in system.solids:
+        for k in ("U", "V", "Un", "Vn"):
+            setattr(s, k, state[f"solid{s.index}.{k}"].copy())
+    if system.fluid is not None:
+        f = system.fluid
+        old_active = f.active.copy()
+        for k in ("V", "P", "Vn", "Pn", "Vbar", "active"):
+            setattr(f, k, state[f"fluid.{k}"].copy())
+        if not np.array_equal(old_active, f.active):
+            system.build_layout()
+    for i, term in enumerate(system.extra_terms):
+        if hasattr(term, "load_state"):
+            prefix = f"term{i}."
+            term.load_state(system, {k[len(prefix):]: v for k, v in state.items() if k.startswith(prefix)})
