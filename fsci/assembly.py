@@ -32,11 +32,14 @@ class Assembly:
             return np.zeros((len(conn), conn.shape[1], conn.shape[1]), dtype=np.int32)
         return self.pattern.positions(conn)
 
-    def apply_dirichlet(self, dofs: np.ndarray) -> None:
-        """Replace the rows of ``dofs`` by identity rows and zero their residual."""
+    def apply_dirichlet(self, dofs: np.ndarray, residual: np.ndarray) -> None:
+        """Replace the rows of ``dofs`` by identity rows with residual ``x_D - x_D(prescribed)``.
+
+        The first Newton increment then carries the prescribed change of the boundary values
+        into the interior (a consistent Dirichlet predictor)."""
         if len(dofs) == 0:
             return
-        self.rhs[dofs] = 0.0
+        self.rhs[dofs] = residual
         if self.want_matrix:
             ip = self.pattern.indptr
             lens = ip[dofs + 1] - ip[dofs]

@@ -361,7 +361,7 @@ def read_body(t: Table, base_dir: Path | None) -> Body:
     name = t.str("name")
     mesh = read_mesh(t.table("mesh"), base_dir)
     material = read_material(t.table("material"))
-    bf = t.vec("body_force", [0.0, 0.0])
+    bf = _value_list(t, "body_force", 2, allow_free=False) if t.has("body_force") else None
     bff = read_time_function(t, "body_force_function")
     edge_names = set(mesh.edge_sets)
     node_names = set(mesh.node_sets) | edge_names
@@ -386,7 +386,7 @@ def read_fluid(t: Table) -> Fluid:
     rho = t.num("rho", lo=0, lo_open=True, allowed="rho > 0")
     mu = t.num("mu", lo=0, lo_open=True, allowed="mu > 0")
     form = t.str("viscous_form", "symmetric", choices=("symmetric", "laplace"))
-    bf = t.vec("body_force", [0.0, 0.0])
+    bf = _value_list(t, "body_force", 2, allow_free=False) if t.has("body_force") else None
     bff = read_time_function(t, "body_force_function")
     dirichlet = [read_dirichlet(d, SIDES) for d in t.tables("dirichlet")]
     neumann = [read_neumann(d, SIDES) for d in t.tables("neumann")]

@@ -41,6 +41,27 @@ class StepContext:
         return 0.0 if self.static else 1.0 - self.theta
 
 
+def time_weighted_vector(values, function, ctx: StepContext, points, n: int) -> np.ndarray:
+    """Evaluate a pair of expressions ``values`` at ``points()`` for both time levels of a step,
+    weighted by ``w_new``/``w_old`` and a time function; zeros if ``values`` is None."""
+    out = np.zeros((n, 2))
+    if values is None:
+        return out
+    fn = function or (lambda t: 1.0)
+    pts = None
+    for t, w in ((ctx.t_new, ctx.w_new), (ctx.t_old, ctx.w_old)):
+        if w == 0.0:
+            continue
+        f = fn(t) * w
+        if f == 0.0:
+            continue
+        if pts is None:
+            pts = points()
+        for c in range(2):
+            out[:, c] += values[c](pts[:, 0], pts[:, 1], t) * f
+    return out
+
+
 class SolidField:
     """Total-Lagrangian body: state, Dirichlet/Neumann data, bulk and load terms."""
 
@@ -123,9 +144,18 @@ class SolidField:
         self.Vn = self.V.copy()
 
     # ----------------------------------------------------------------- assembly
+    def quadrature_points(self) -> np.ndarray:
+        """Reference coordinates of all cell quadrature points, ``(n_cells * nq, 2)``."""
+        from fsci.fem.q1 import q1_eval
+
+        N, _ = q1_eval(self.qxi)
+        return np.einsum("qa,ead->eqd", N, self.X[self.mesh.cells]).reshape(-1, 2)
+
     def _body_force(self, ctx: StepContext) -> np.ndarray:
-        fn = self.body.body_force_function
-        return self.body.body_force * (ctx.w_new * fn(ctx.t_new) + ctx.w_old * fn(ctx.t_old))
+        """Time-weighted body force per unit mass at every quadrature point."""
+        nq = self.mesh.n_cells * len(self.qw)
+        return time_weighted_vector(self.body.body_force, self.body.body_force_function, ctx,
+                                    self.quadrature_points, nq)
 
     def assemble(self, asm: Assembly, ctx: StepContext) -> None:
         tgt = asm.target()
@@ -184,7 +214,7 @@ class SolidField:
         cells = self.mesh.cells
         dummy = np.zeros((len(cells), 4, 4), dtype=np.int32)
         sk.assemble_solid(self.X, cells, self.Un, self.law, self.prm, self.rho, 0.0, self.Un, 1.0 - ctx.theta,
-                          np.zeros(2), self.qxi, self.qw, gid, dummy, *tgt)
+                          np.zeros((len(cells) * len(self.qw), 2)), self.qxi, self.qw, gid, dummy, *tgt)
         for edges, nm in self._neumann:
             if nm.kind == "pressure":
                 _, p = self._edge_loads(edges, nm, ((ctx.t_old, 1.0 - ctx.theta),))
@@ -225,7 +255,11 @@ class FluidField:
                 if expr is not None:
                     self._dirichlet.append((nodes, c, expr, d.function))
         self._neumann = [(g.side_edges(nm.boundary), g.side_normal(nm.boundary), nm) for nm in fluid.neumann]
-        self.needs_pressure_pin = len(fluid.neumann) == 0 or fluid.pressure_reference is not None
+        # the pressure is fixed only up to a constant if the normal velocity is prescribed on
+        # every side of the box (no outflow, no traction condition)
+        normal_comp = {"left": 0, "right": 0, "bottom": 1, "top": 1}
+        closed = {d.boundary for d in fluid.dirichlet if d.values[normal_comp[d.boundary]] is not None}
+        self.needs_pressure_pin = closed == set(normal_comp) or fluid.pressure_reference is not None
         # integration data of an uncut grid: tensor Gauss on every cell
         self.set_uncut_quadrature()
         self.ghost = np.zeros(len(self.faces), dtype=np.bool_)
@@ -276,9 +310,9 @@ class FluidField:
         return int(act[np.argmin(d)])
 
     def body_force_density(self, ctx: StepContext) -> np.ndarray:
-        f = self.spec.body_force_function
-        fn = (lambda t: 1.0) if f is None else f
-        return self.rho * self.spec.body_force * (ctx.w_new * fn(ctx.t_new) + ctx.w_old * fn(ctx.t_old))
+        """rho * b at the quadrature points, time-weighted, ``(nq, 2)``."""
+        return self.rho * time_weighted_vector(self.spec.body_force, self.spec.body_force_function, ctx,
+                                               lambda: self.qx, len(self.qw))
 
     # ----------------------------------------------------------------- time stepping
     def begin_step(self, ctx: StepContext) -> None:
@@ -298,11 +332,10 @@ class FluidField:
         gu, gp, gdiv, ggp, ggpt = self.stab
         return np.array([self.rho, self.mu, gu, gp, gdiv, ggp, ggpt, 0.0 if ctx.static else 1.0 / ctx.dt])
 
-    def assemble(self, asm: Assembly, ctx: StepContext, body_force_q: np.ndarray | None = None) -> None:
+    def assemble(self, asm: Assembly, ctx: StepContext) -> None:
         g = self.grid
         tgt = asm.target()
-        if body_force_q is None:
-            body_force_q = np.broadcast_to(self.body_force_density(ctx), self.qx.shape).copy()
+        body_force_q = self.body_force_density(ctx)
         conn = self.gnode[g.cells[self.int_cells]]
         Vo = self.Vn if not ctx.static else self.V
         fk.assemble_fluid_cells(g.xs, g.ys, g.nx, g.cells, self.int_cells, self.qptr, self.qx, self.qw,

@@ -57,7 +57,7 @@ class Body:
     name: str
     mesh: QuadMesh
     material: Material
-    body_force: np.ndarray
+    body_force: list[Expression]  # per unit mass, expressions in reference x, y and t
     body_force_function: TimeFunction
     dirichlet: list[Dirichlet] = field(default_factory=list)
     neumann: list[Neumann] = field(default_factory=list)
@@ -85,7 +85,7 @@ class Fluid:
     rho: float
     mu: float
     viscous_form: str = "symmetric"  # or "laplace"
-    body_force: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    body_force: list[Expression] | None = None  # per unit mass, expressions in x, y, t
     body_force_function: TimeFunction | None = None
     dirichlet: list[Dirichlet] = field(default_factory=list)
     neumann: list[Neumann] = field(default_factory=list)

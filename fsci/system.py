@@ -1,9 +1,9 @@
 """The monolithic discrete system: unknown layout, assembly of every term, Dirichlet rows.
 
 Unknowns are ``[u of body 0, u of body 1, ..., (v_x, v_y, p) of every ACTIVE fluid node]``
-(FORMULATION §4.1 "one set of fluid dofs per background node"). Dirichlet dofs are set to their
-values at the start of a step and their rows replaced by identity rows, the same way for every
-field; the Newton increments there are zero.
+(FORMULATION §4.1 "one set of fluid dofs per background node"). Dirichlet rows are replaced by identity rows, the same way for every
+field. Their residual is ``x_D - x_D(prescribed)``, so the first Newton increment carries the
+change of the boundary values into the interior (consistent Dirichlet predictor).
 """
 
 from __future__ import annotations
@@ -122,11 +122,6 @@ class System:
         keep = len(d) - 1 - last
         return d[keep], v[keep]
 
-    def apply_dirichlet_values(self, t: float) -> None:
-        dofs, vals = self.dirichlet(t)
-        x = self.gather()
-        x[dofs] = vals
-        self.scatter(x)
 
     # ----------------------------------------------------------------- steps
     def begin_step(self, ctx: StepContext) -> None:
@@ -136,7 +131,6 @@ class System:
             self.fluid.begin_step(ctx)
         for term in self.extra_terms:
             term.begin_step(self, ctx)
-        self.apply_dirichlet_values(ctx.t_new)
         self.ctx = ctx
 
     def end_step(self, ctx: StepContext) -> None:
@@ -157,7 +151,8 @@ class System:
         for term in self.extra_terms:
             term.assemble(self, asm, ctx)
         if dirichlet:
-            asm.apply_dirichlet(self.dirichlet(ctx.t_new)[0])
+            dofs, vals = self.dirichlet(ctx.t_new)
+            asm.apply_dirichlet(dofs, self.gather()[dofs] - vals)
         return asm
 
 
@@ -175,8 +170,8 @@ class _ResidualOnly(Assembly):
         z = np.zeros(self.layout.n_nodes, dtype=np.int64)
         return (self.data, self.rhs, z, z, self.layout.start, self.layout.ndof, False)
 
-    def apply_dirichlet(self, dofs: np.ndarray) -> None:
-        self.rhs[dofs] = 0.0
+    def apply_dirichlet(self, dofs: np.ndarray, residual: np.ndarray) -> None:
+        self.rhs[dofs] = residual
 
 
 def snapshot(system: System) -> dict[str, np.ndarray]:

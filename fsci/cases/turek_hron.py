@@ -45,7 +45,7 @@ def _tip_quantities() -> list[dict[str, Any]]:
 
 def csm1() -> dict[str, Any]:
     bar = bar_body()
-    bar["body_force"] = [0.0, "=-g"]
+    bar["body_force"] = [0.0, "-g"]
     bar["body_force_function"] = {"type": "ramp", "t0": 0.0, "t1": 1.0}
     return {
         "name": "turek-hron-csm1",
@@ -66,7 +66,7 @@ def csm1() -> dict[str, Any]:
 
 def csm3() -> dict[str, Any]:
     bar = bar_body()
-    bar["body_force"] = [0.0, "=-g"]
+    bar["body_force"] = [0.0, "-g"]
     q = _tip_quantities() + [{"name": "uy_A_osc", "type": "oscillation", "of": "uy_A"},
                              {"name": "ux_A_osc", "type": "oscillation", "of": "ux_A"}]
     return {

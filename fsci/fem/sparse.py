@@ -26,10 +26,14 @@ from numba import njit
 def _count_pairs(conn, counts):
     m = conn.shape[1]
     for e in range(conn.shape[0]):
+        valid = 0
+        for i in range(m):
+            if conn[e, i] >= 0:
+                valid += 1
         for i in range(m):
             a = conn[e, i]
             if a >= 0:
-                counts[a] += m
+                counts[a] += valid
 
 
 @njit(cache=True)

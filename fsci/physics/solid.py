@@ -21,12 +21,13 @@ from fsci.physics.materials import stress_tangent
 
 
 @njit(cache=True)
-def assemble_solid(X, cells, U, law, prm, rho, mass_coef, Upred, w_int, bforce, qxi, qw,
+def assemble_solid(X, cells, U, law, prm, rho, mass_coef, Upred, w_int, bq, qxi, qw,
                    gnode, pos, data, rhs, row_base, row_len, start, ndof, want_matrix):
     """Add internal forces, inertia and body force of all cells of one body.
 
     Parameters are arrays in the body's local node numbering; ``gnode`` maps them to global
     nodes of the dof layout and ``pos`` holds the pattern offsets of each cell's node pairs.
+    ``bq[e * nq + q]`` is the body force per unit mass at quadrature point ``q`` of cell ``e``.
     """
     N = np.empty(4)
     dN = np.empty((4, 2))
@@ -75,7 +76,7 @@ def assemble_solid(X, cells, U, law, prm, rho, mass_coef, Upred, w_int, bforce, 
                 Re[k] += w_int * w * (B[0, k] * sv0 + B[1, k] * sv1 + B[2, k] * sv2)
             for a in range(4):
                 for i in range(2):
-                    Re[2 * a + i] -= w * rho * N[a] * bforce[i]
+                    Re[2 * a + i] -= w * rho * N[a] * bq[e * len(qw) + q, i]
             if mass_coef != 0.0:
                 for a in range(4):
                     for b in range(4):

@@ -1,0 +1,174 @@
+"""Core pieces: quadrature exactness, sparse pattern assembly, meshes, time functions,
+expressions."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fsci.errors import InputError, MeshError
+from fsci.expressions import Expression
+from fsci.fem.quadrature import gauss_line, gauss_quad, gauss_triangle, triangle_rule
+from fsci.fem.sparse import DofLayout, Pattern, add_local
+from fsci.mesh import generate
+from fsci.mesh.gmsh_io import mesh_outline, read_msh
+from fsci.mesh.quadmesh import QuadMesh
+from fsci.timefunc import make_time_function
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 5])
+def test_gauss_line_and_quad_exact_degree(n):
+    x, w = gauss_line(n)
+    for k in range(2 * n):
+        exact = (1 - (-1) ** (k + 1)) / (k + 1)
+        assert abs(np.dot(w, x ** k) - exact) < 1e-13
+    p, w = gauss_quad(n)
+    for a in range(2 * n):
+        for b in range(2 * n):
+            ex = (1 - (-1) ** (a + 1)) / (a + 1) * (1 - (-1) ** (b + 1)) / (b + 1)
+            assert abs(np.dot(w, p[:, 0] ** a * p[:, 1] ** b) - ex) < 1e-12
+
+
+@pytest.mark.parametrize("degree", [1, 2, 4, 6, 8])
+def test_triangle_rule_exact_for_total_degree(degree):
+    p, w = gauss_triangle(degree)
+    for a in range(degree + 1):
+        for b in range(degree + 1 - a):
+            exact = math.factorial(a) * math.factorial(b) / math.factorial(a + b + 2)
+            assert abs(np.dot(w, p[:, 0] ** a * p[:, 1] ** b) - exact) < 1e-14
+    # mapped rule on an arbitrary triangle integrates x^2 y exactly
+    tri = np.array([[[0.3, 0.1], [1.7, 0.4], [0.9, 1.3]]])
+    pts, wts = triangle_rule(tri, 3)
+    e1, e2 = tri[0, 1] - tri[0, 0], tri[0, 2] - tri[0, 0]
+    area = 0.5 * abs(e1[0] * e2[1] - e1[1] * e2[0])
+    assert abs(wts.sum() - area) < 1e-14
+
+
+def test_pattern_assembly_equals_dense_assembly():
+    """Random element blocks over mixed 2/3-dof nodes: CSR assembly equals dense assembly."""
+    rng = np.random.default_rng(0)
+    ndof = rng.choice([2, 3], size=12)
+    lay = DofLayout(ndof)
+    conn = np.array([rng.choice(12, size=4, replace=False) for _ in range(15)])
+    conn[3, 2] = -1  # a slot without dofs is skipped
+    pat = Pattern(lay, [conn])
+    data = np.zeros(pat.nnz)
+    rhs = np.zeros(lay.n_dofs)
+    dense = np.zeros((lay.n_dofs, lay.n_dofs))
+    dense_rhs = np.zeros(lay.n_dofs)
+    pos = pat.positions(conn)
+    for e, nodes in enumerate(conn):
+        dofs = np.concatenate([lay.start[a] + np.arange(ndof[a]) for a in nodes if a >= 0])
+        K = rng.standard_normal((len(dofs), len(dofs)))
+        R = rng.standard_normal(len(dofs))
+        add_local(data, rhs, pat.row_base, pat.row_len, lay.start, lay.ndof, nodes, pos[e], K, R, True)
+        dense[np.ix_(dofs, dofs)] += K
+        dense_rhs[dofs] += R
+    assert np.allclose(pat.matrix(data).toarray(), dense)
+    assert np.allclose(rhs, dense_rhs)
+    diag = pat.diagonal_positions()
+    assert np.array_equal(pat.indices[diag], np.arange(lay.n_dofs))
+
+
+def test_structured_and_graded_meshes():
+    m = generate.rectangle(0, 2, 0, 1, 4, 2)
+    m.check()
+    assert m.n_cells == 8 and abs(m.cell_areas().sum() - 2.0) < 1e-14
+    assert set(m.edge_sets) >= {"left", "right", "bottom", "top", "all"}
+    for name, e in m.edge_sets.items():
+        bnd = {tuple(x) for x in m.boundary.edges}
+        assert all(tuple(x) in bnd for x in e), name  # oriented with the cell on the left
+    x = generate.graded(0.0, 1.0, 10, ratio=4.0)
+    d = np.diff(x)
+    assert abs(d[-1] / d[0] - 4.0) < 1e-12 and abs(x[-1] - 1.0) < 1e-15
+
+
+def test_mapped_mesh_follows_an_arc():
+    r = 0.05
+    x0 = 0.2 + math.sqrt(r * r - 0.01 ** 2)
+    from fsci.config import Table, _curve
+
+    left = _curve(Table({"arc": {"start": [x0, 0.19], "center": [0.2, 0.2], "end": [x0, 0.21]}}, "left", {}))
+    line = lambda a, b: (lambda s: np.asarray(a)[None] + np.asarray(s)[:, None] * (np.asarray(b) - np.asarray(a))[None])
+    m = generate.mapped(line([x0, 0.19], [0.6, 0.19]), line([0.6, 0.19], [0.6, 0.21]), line([x0, 0.21], [0.6, 0.21]),
+                        left, 20, 4)
+    m.check()
+    ln = m.node_sets["left"]
+    assert np.allclose(np.linalg.norm(m.nodes[ln] - [0.2, 0.2], axis=1), r)
+
+
+def test_gmsh_outline_and_msh_roundtrip(tmp_path):
+    loop = [{"line": [[0, 0], [1, 0]], "name": "bottom"},
+            {"arc": {"start": [1, 0], "center": [0, 0], "end": [0, 1]}, "name": "round"},
+            {"line": [[0, 1], [0, 0]], "name": "axis"}]
+    m = mesh_outline([loop], 0.1)
+    m.check()
+    assert abs(m.cell_areas().sum() - math.pi / 4) < 5e-3
+    assert set(m.edge_sets) >= {"bottom", "round", "axis", "all"}
+    assert np.allclose(np.linalg.norm(m.nodes[m.node_sets["round"]], axis=1), 1.0, atol=1e-12)
+    import gmsh
+
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("sq")
+        geo = gmsh.model.geo
+        p = [geo.addPoint(*c, 0, 0.25) for c in ((0, 0), (2, 0), (2, 1), (0, 1))]
+        l = [geo.addLine(p[i], p[(i + 1) % 4]) for i in range(4)]
+        s = geo.addPlaneSurface([geo.addCurveLoop(l)])
+        geo.mesh.setTransfiniteSurface(s)
+        for li in l:
+            geo.mesh.setTransfiniteCurve(li, 5)
+        geo.mesh.setRecombine(2, s)
+        geo.synchronize()
+        gmsh.model.addPhysicalGroup(1, [l[0]], name="floor")
+        gmsh.model.addPhysicalGroup(2, [s], name="dom")
+        gmsh.model.mesh.generate(2)
+        path = str(tmp_path / "sq.msh")
+        gmsh.write(path)
+    finally:
+        gmsh.finalize()
+    m2 = read_msh(path)
+    assert m2.n_cells == 16 and abs(m2.cell_areas().sum() - 2.0) < 1e-12
+    assert np.allclose(m2.nodes[m2.node_sets["floor"], 1], 0.0)
+
+
+def test_mesh_check_reports_inverted_and_degenerate_cells():
+    nodes = np.array([[0, 0], [1, 0], [1, 1], [0, 1], [2, 0], [2, 1]], float)
+    bad = QuadMesh(nodes, np.array([[0, 1, 2, 3], [1, 5, 4, 2]]))  # second cell is a bow-tie
+    with pytest.raises(MeshError, match="cell 1 is inverted"):
+        bad.check()
+    flat = QuadMesh(np.array([[0, 0], [1, 0], [2, 0], [1, 0]], float), np.array([[0, 1, 2, 3]]))
+    with pytest.raises(MeshError, match="degenerate"):
+        flat.check()
+
+
+def test_time_functions():
+    ramp = make_time_function({"type": "ramp", "t0": 1.0, "t1": 3.0})
+    assert ramp(0.5) == 0.0 and ramp(2.0) == 0.5 and ramp(5.0) == 1.0
+    th = make_time_function({"type": "one_minus_cos", "t1": 2.0})
+    assert abs(th(1.0) - 0.5) < 1e-15 and th(3.0) == 1.0
+    per = make_time_function({"type": "one_minus_cos", "period": 0.05, "amplitude": 1.5})
+    assert abs(per(0.025) - 3.0) < 1e-12 and abs(per(0.05)) < 1e-12
+    tab = make_time_function({"type": "table", "times": [0, 1, 2], "values": [0, 2, 2]})
+    assert tab(0.5) == 1.0 and tab(10) == 2.0
+    lin = make_time_function({"type": "linear", "slope": 0.5, "t0": 1000})
+    assert lin(900) == 0.0 and lin(1010) == 5.0
+    with pytest.raises(InputError, match="t1"):
+        make_time_function({"type": "ramp", "t0": 1.0, "t1": 1.0})
+    with pytest.raises(InputError, match="type"):
+        make_time_function({"type": "wiggle"})
+
+
+def test_expressions_are_whitelisted():
+    e = Expression("1.5*U*4*y*(H - y)/H**2", {"U": 0.2, "H": 0.41})
+    assert abs(float(e(0.0, 0.205)) - 0.3) < 1e-14
+    assert np.allclose(Expression("sin(pi*x)*t")(np.array([0.5, 1.0]), 0.0, 2.0), [2.0, 0.0], atol=1e-15)
+    with pytest.raises(InputError, match="unknown name 'z'"):
+        Expression("z + 1")
+    with pytest.raises(InputError):
+        Expression("__import__('os')")
+    with pytest.raises(InputError):
+        Expression("x +* 2")
