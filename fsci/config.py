@@ -27,14 +27,14 @@ from fsci.mesh.grid import SIDES, Grid
 from fsci.mesh.quadmesh import QuadMesh
 from fsci.physics.materials import LAW_NAMES
 from fsci.problem import (
-    Body, Dirichlet, Fluid, Material, Neumann, Output, Problem, Quantity, Reference,
+    Body, Dirichlet, Fluid, InterfaceSettings, Material, Neumann, Output, Problem, Quantity, Reference,
     SolverSettings, Stabilization, TimeGrid,
 )
 from fsci.timefunc import make_time_function
 
 QUANTITY_KINDS = (
     "point_displacement", "body_force", "pressure_difference", "flow_rate", "oscillation",
-    "centerline_profiles", "vortex_center", "mass_balance",
+    "centerline_profiles", "vortex_center", "mass_balance", "body_force",
 )
 
 
@@ -236,7 +236,9 @@ def read_axis(t: Table, key: str) -> np.ndarray:
             b0 = float(evaluate_parameter(breaks[i], t.params, a.key("breaks")))
             b1 = float(evaluate_parameter(breaks[i + 1], t.params, a.key("breaks")))
             n = evaluate_parameter(cells[i], t.params, a.key("cells"))
-            if not isinstance(n, int) or n < 1 or b1 <= b0:
+            if isinstance(n, float) and n.is_integer():
+                n = int(n)
+            if isinstance(n, bool) or not isinstance(n, int) or n < 1 or b1 <= b0:
                 raise InputError(a.key("cells"), cells, "positive integers between increasing breaks")
             pieces.append(generate.graded(b0, b1, n, float(ratios[i]))[(1 if i else 0):])
         a.done()
@@ -290,7 +292,8 @@ def read_mesh(t: Table, base_dir: Path | None) -> QuadMesh:
         loops = t.raw("loops")
         if not isinstance(loops, list) or not loops:
             raise InputError(t.key("loops"), loops, "a list of closed loops of line/arc pieces")
-        m = mesh_outline(loops, t.num("h", lo=0, lo_open=True))
+        hmax = t.num("h_max", 0.0, lo=0) if t.has("h_max") else None
+        m = mesh_outline(loops, t.num("h", lo=0, lo_open=True), h_max=hmax)
     elif kind == "disk":
         c = t.vec("center")
         r = t.num("radius", lo=0, lo_open=True)
@@ -298,7 +301,8 @@ def read_mesh(t: Table, base_dir: Path | None) -> QuadMesh:
         pts = [c + r * np.array([math.cos(a), math.sin(a)]) for a in (0, math.pi / 2, math.pi, 3 * math.pi / 2)]
         loop = [{"arc": {"start": pts[i].tolist(), "center": c.tolist(), "end": pts[(i + 1) % 4].tolist()}, "name": name}
                 for i in range(4)]
-        m = mesh_outline([loop], t.num("h", lo=0, lo_open=True))
+        hmax = t.num("h_max", 0.0, lo=0) if t.has("h_max") else None
+        m = mesh_outline([loop], t.num("h", lo=0, lo_open=True), h_max=hmax)
     else:
         path = Path(t.str("path"))
         if not path.is_absolute() and base_dir is not None:
@@ -364,10 +368,13 @@ def read_body(t: Table, base_dir: Path | None) -> Body:
     bf = _value_list(t, "body_force", 2, allow_free=False) if t.has("body_force") else None
     bff = read_time_function(t, "body_force_function")
     edge_names = set(mesh.edge_sets)
-    node_names = set(mesh.node_sets) | edge_names
+    node_names = set(mesh.node_sets) | edge_names | {"body"}  # "body": every node
     dirichlet = [read_dirichlet(d, node_names) for d in t.tables("dirichlet")]
     neumann = [read_neumann(d, edge_names) for d in t.tables("neumann")]
     rigid = t.bool("rigid", False)
+    slip = read_slip_length(t)
+    iv = _value_list(t, "interface_velocity", 2, allow_free=False) if t.has("interface_velocity") else None
+    outside = t.bool("extends_outside", False)
     interface = t.raw("interface", None)
     contact = t.raw("contact", None)
     for key, val in (("interface", interface), ("contact", contact)):
@@ -376,7 +383,21 @@ def read_body(t: Table, base_dir: Path | None) -> Body:
         if not isinstance(val, list) or any(v not in edge_names for v in val):
             raise InputError(t.key(key), val, "a list of edge sets of the body's mesh (known: " + ", ".join(sorted(edge_names)) + ")")
     t.done()
-    return Body(name, mesh, material, bf, bff, dirichlet, neumann, interface, contact, rigid)
+    return Body(name, mesh, material, bf, bff, dirichlet, neumann, interface, contact, rigid, slip, iv, outside)
+
+
+def read_slip_length(t: Table) -> float | Expression:
+    """Navier slip length: a number ≥ 0, "inf" (free slip) or an expression in x, y, t."""
+    v = t.raw("slip_length", 0.0)
+    if isinstance(v, str) and v.strip().lower() in ("inf", "infinity"):
+        return math.inf
+    if isinstance(v, bool) or not isinstance(v, (int, float, str)):
+        raise InputError(t.key("slip_length"), v, "a slip length ≥ 0, \"inf\" or an expression in x, y, t")
+    if isinstance(v, str):
+        return make_scalar(v, t.params, t.key("slip_length"))
+    if not (v >= 0.0):
+        raise InputError(t.key("slip_length"), v, "a slip length κ ≥ 0 (0 = no slip, \"inf\" = free slip)")
+    return float(v)
 
 
 def read_fluid(t: Table) -> Fluid:
@@ -399,8 +420,19 @@ def read_fluid(t: Table) -> Fluid:
         gamma_gp_t=s.num("gamma_gp_t", 0.001, lo=0),
     )
     s.done()
+    it = t.table("interface")
+    iset = InterfaceSettings(
+        gamma_n=it.num("gamma_n", 35.0, lo=0, lo_open=True), gamma_t=it.num("gamma_t", 35.0, lo=0, lo_open=True),
+        trace_constant=it.num("trace_constant", 1.43426, lo=0, lo_open=True),
+        adjoint=it.str("adjoint", "skew", choices=("skew", "symmetric")),
+        island_factor=it.num("island_factor", 2.0, lo=0),
+        eps_geom=it.num("eps_geom", 1e-12, lo=0),
+        grow_only_after=it.int("grow_only_after", 5, lo=1),
+        max_layout_changes=it.int("max_layout_changes", 5, lo=0),
+    )
+    it.done()
     t.done()
-    return Fluid(grid, rho, mu, form, bf, bff, dirichlet, neumann, pref_arr, st)
+    return Fluid(grid, rho, mu, form, bf, bff, dirichlet, neumann, pref_arr, st, iset)
 
 
 def read_time(t: Table) -> TimeGrid:

@@ -35,3 +35,14 @@ class SolverError(RuntimeError):
 
 class MeshError(ValueError):
     """A mesh is unusable (inverted or degenerate cells, unknown set names)."""
+
+
+class GeometryError(SolverError):
+    """The current geometry cannot be cut (self-intersecting or escaping outline).
+
+    During a run this fails the Newton solve (the step is retried with a smaller step); for the
+    initial geometry it is reported as an input error."""
+
+
+class FsciWarning(UserWarning):
+    """Something the user should know about but that does not stop the run."""

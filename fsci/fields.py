@@ -260,25 +260,20 @@ class FluidField:
         normal_comp = {"left": 0, "right": 0, "bottom": 1, "top": 1}
         closed = {d.boundary for d in fluid.dirichlet if d.values[normal_comp[d.boundary]] is not None}
         self.needs_pressure_pin = closed == set(normal_comp) or fluid.pressure_reference is not None
-        # integration data of an uncut grid: tensor Gauss on every cell
-        self.set_uncut_quadrature()
-        self.ghost = np.zeros(len(self.faces), dtype=np.bool_)
+        self.cut = None
 
     # ----------------------------------------------------------------- geometry
-    def set_uncut_quadrature(self) -> None:
-        g = self.grid
-        xi, w = gauss_quad(2)
-        cells = np.arange(g.n_cells)
-        size = g.cell_size
-        x0 = np.column_stack([g.xs[g.cell_ij[:, 0]], g.ys[g.cell_ij[:, 1]]])
-        pts = x0[:, None, :] + 0.5 * (xi[None, :, :] + 1.0) * size[:, None, :]
-        wts = w[None, :] * (0.25 * size[:, 0] * size[:, 1])[:, None]
-        self.int_cells = cells
-        self.qptr = np.arange(0, 4 * len(cells) + 1, 4, dtype=np.int64)
-        self.qx = np.ascontiguousarray(pts.reshape(-1, 2))
-        self.qw = np.ascontiguousarray(wts.ravel())
-        self.faces = g.faces
-        self.face_nodes = fk.face_nodes(g.cells, self.faces)
+    def set_cut(self, cut) -> None:
+        """Take integration cells, quadrature, faces and the ACTIVE set from a CutState."""
+        self.cut = cut
+        self.int_cells = cut.int_cells
+        self.qptr = cut.qptr
+        self.qx = cut.qx
+        self.qw = cut.qw
+        self.faces = cut.faces
+        self.ghost = cut.ghost
+        self.face_nodes = fk.face_nodes(self.grid.cells, self.faces)
+        self.active = cut.active.copy()
 
     def blocks(self) -> list[np.ndarray]:
         return [self.gnode[self.grid.cells[self.int_cells]], self.gnode[self.face_nodes]]
@@ -341,7 +336,7 @@ class FluidField:
         fk.assemble_fluid_cells(g.xs, g.ys, g.nx, g.cells, self.int_cells, self.qptr, self.qx, self.qw,
                                 body_force_q, self.V, self.P, Vo, self.cell_parameters(ctx), self.gnode,
                                 asm.positions(conn), *tgt)
-        fk.assemble_fluid_faces(g.xs, g.ys, g.nx, g.cells, self.faces, self.ghost, self.Vbar, self.V, self.P,
+        fk.assemble_fluid_faces(g.xs, g.ys, g.nx, g.cells, self.faces, self.ghost.astype(np.bool_), self.Vbar, self.V, self.P,
                                 self.face_parameters(ctx), self.gnode, asm.positions(self.gnode[self.face_nodes]),
                                 *tgt)
         self._assemble_neumann(asm, ctx)

@@ -64,6 +64,9 @@ class Body:
     interface: list[str] | None = None  # edge sets coupled to the fluid; None = all not loaded/fixed
     contact: list[str] | None = None  # edge sets that may touch other bodies
     rigid: bool = False  # every dof prescribed
+    slip_length: float | Expression = 0.0  # Navier slip length kappa (inf = free slip)
+    interface_velocity: list[Expression] | None = None  # prescribed interface velocity (overrides du/dt)
+    extends_outside: bool = False  # the body may cross the fluid box boundary
 
 
 @dataclass
@@ -75,6 +78,20 @@ class Stabilization:
     gamma_div: float = 0.00025
     gamma_gp: float = 0.5
     gamma_gp_t: float = 0.001
+
+
+@dataclass
+class InterfaceSettings:
+    """Nitsche coupling and cut parameters (defaults: the paper / 4C's FSCI test)."""
+
+    gamma_n: float = 35.0  # gamma_0^F, normal penalty constant (Remark 8)
+    gamma_t: float = 35.0  # gamma_0^t, tangential penalty constant (37)
+    trace_constant: float = 1.43426  # C_T of Q1 (4C, pseudo-2D)
+    adjoint: str = "skew"  # viscous adjoint: "skew" (s_adj = -1) or "symmetric" (+1)
+    island_factor: float = 2.0  # islands: bounding-box diagonal < factor * cell diagonal
+    eps_geom: float = 1e-12  # re-cut while the displacement moved more than this since the last cut
+    grow_only_after: int = 5  # Newton iterations after which the ACTIVE set may only grow
+    max_layout_changes: int = 5  # ACTIVE-set changes tolerated in one step before growing only
 
 
 @dataclass
@@ -91,6 +108,7 @@ class Fluid:
     neumann: list[Neumann] = field(default_factory=list)
     pressure_reference: np.ndarray | None = None  # point where p = 0 is imposed, if needed
     stabilization: Stabilization = field(default_factory=Stabilization)
+    interface: InterfaceSettings = field(default_factory=InterfaceSettings)
 
 
 @dataclass

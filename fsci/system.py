@@ -10,9 +10,15 @@ from __future__ import annotations
 
 import numpy as np
 
+import warnings
+
 from fsci.assembly import Assembly
+from fsci.cut.state import CutState
+from fsci.cut.transfer import extend_to_new_nodes
+from fsci.errors import GeometryError, InputError
 from fsci.fem.sparse import DofLayout, PatternCache
 from fsci.fields import FluidField, SolidField, StepContext
+from fsci.geometry.outlines import Outline, body_polygon, check_in_box, warn_if_thin
 from fsci.problem import Problem
 
 
@@ -24,8 +30,93 @@ class System:
         self.solids = [SolidField(b, i) for i, b in enumerate(problem.bodies)]
         self.fluid = FluidField(problem.fluid) if problem.fluid is not None else None
         self.patterns = PatternCache()
-        self.extra_terms: list = []  # interface/contact terms added by later stages
+        self.extra_terms: list = []  # interface and contact terms
+        self.interface_edges = [self._interface_edges(s) for s in self.solids]
+        self._loops = [s.mesh.boundary_loops() for s in self.solids]
+        self.cut: CutState | None = None
+        self.layout_changes = 0
+        if self.fluid is not None:
+            from fsci.interface import NitscheInterface
+
+            try:
+                self.update_cut(initial=True)
+            except GeometryError as exc:
+                raise InputError("bodies", "initial geometry", str(exc)) from None
+            if self.solids:
+                self.extra_terms.append(NitscheInterface(self))
         self.build_layout()
+
+    # ----------------------------------------------------------------- geometry
+    @staticmethod
+    def _interface_edges(s: SolidField) -> np.ndarray:
+        """Coupling-interface edges Γ of a body: its ``interface`` sets, or every boundary edge
+        that carries no Neumann load (FORMULATION §1)."""
+        body = s.body
+        if body.interface is not None:
+            return np.vstack([s.mesh.edge_sets[n] for n in body.interface])
+        loaded = {(int(a), int(b)) for nm in body.neumann for a, b in s.mesh.edge_sets[nm.boundary]}
+        e = s.mesh.boundary.edges
+        keep = np.array([(int(a), int(b)) not in loaded for a, b in e], dtype=bool)
+        return e[keep]
+
+    def outlines(self) -> list[Outline]:
+        """Current outlines of all bodies (validated)."""
+        out = []
+        box = self.fluid.grid.box
+        tol = 1e-10 * max(1.0, max(abs(v) for v in box))
+        for b, s in enumerate(self.solids):
+            x = s.X + s.U
+            o = Outline(b, s.name, x, self.interface_edges[b], body_polygon(x, self._loops[b], s.name),
+                        s.mesh.boundary.edges)
+            if not s.body.extends_outside:
+                check_in_box(o, box, tol)
+            out.append(o)
+        return out
+
+    def update_cut(self, keep_nodes: np.ndarray | None = None, initial: bool = False) -> bool:
+        """Recompute the cut at the current positions; returns True if the ACTIVE set changed
+        (the dof layout is then rebuilt and new nodes get extended values)."""
+        f = self.fluid
+        outlines = self.outlines()
+        cut = CutState(f.grid, outlines, f.spec.interface.island_factor, keep_nodes=keep_nodes)
+        if initial:
+            g = f.grid
+            for o in outlines:
+                h = float(np.max(np.hypot(*g.cell_size[g.locate(o.x)].T))) / np.sqrt(2.0)
+                warn_if_thin(o, h)
+        old = f.active.copy()
+        f.set_cut(cut)
+        self.cut = cut
+        self._u_at_cut = [s.U.copy() for s in self.solids]
+        changed = not np.array_equal(old, f.active)
+        if changed and not initial:
+            new = f.active & ~old
+            if new.any():
+                for arr in (f.V, f.P, f.Vn, f.Pn, f.Vbar):
+                    extend_to_new_nodes(f.grid, arr, old, f.active)
+            self.build_layout()
+        return changed
+
+    def moving(self) -> bool:
+        """True if a body's shape or position is an unknown (its cut may change in Newton)."""
+        return any(not s.fixed.all() for s in self.solids)
+
+    def before_iteration(self, it: int) -> bool:
+        """Re-cut while the bodies moved more than eps_geom since the last cut (§5.2) and apply
+        the solution-space update rule (§5.3). Returns True if the dof layout changed."""
+        if self.fluid is None or not self.solids or it == 1 or not self.moving():
+            return False
+        st = self.fluid.spec.interface
+        moved = max(float(np.max(np.abs(s.U - u0), initial=0.0)) for s, u0 in zip(self.solids, self._u_at_cut))
+        if moved <= st.eps_geom:
+            return False
+        grow_only = it > st.grow_only_after or self.layout_changes >= st.max_layout_changes
+        keep = self._step_active if grow_only else None
+        changed = self.update_cut(keep_nodes=keep)
+        if changed:
+            self.layout_changes += 1
+            self._step_active |= self.fluid.active
+        return changed
 
     # ----------------------------------------------------------------- layout
     def build_layout(self) -> None:
@@ -126,7 +217,14 @@ class System:
     # ----------------------------------------------------------------- steps
     def begin_step(self, ctx: StepContext) -> None:
         for s in self.solids:
+            if s.fixed.all():  # fully prescribed body: place it before cutting
+                nodes, comps, vals = s.dirichlet_values(ctx.t_new)
+                s.U[nodes, comps] = vals
             s.begin_step(ctx)
+        if self.fluid is not None and self.solids:
+            self.update_cut()
+            self.layout_changes = 0
+            self._step_active = self.fluid.active.copy()
         if self.fluid is not None:
             self.fluid.begin_step(ctx)
         for term in self.extra_terms:
@@ -200,6 +298,8 @@ def restore(system: System, state: dict[str, np.ndarray]) -> None:
         old_active = f.active.copy()
         for k in ("V", "P", "Vn", "Pn", "Vbar", "active"):
             setattr(f, k, state[f"fluid.{k}"].copy())
+        if system.solids:
+            system.update_cut()
         if not np.array_equal(old_active, f.active):
             system.build_layout()
     for i, term in enumerate(system.extra_terms):

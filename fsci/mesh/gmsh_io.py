@@ -52,7 +52,8 @@ def _compact(nodes: np.ndarray, cells: np.ndarray, edge_sets: dict[str, np.ndarr
     return mesh
 
 
-def mesh_outline(loops: Sequence[Sequence[Mapping[str, Any]]], h: float, *, algorithm: int = 8) -> QuadMesh:
+def mesh_outline(loops: Sequence[Sequence[Mapping[str, Any]]], h: float, *, h_max: float | None = None,
+                 algorithm: int = 8) -> QuadMesh:
     """Mesh a 2D region bounded by closed loops of lines and arcs with quads.
 
     Parameters
@@ -64,7 +65,10 @@ def mesh_outline(loops: Sequence[Sequence[Mapping[str, Any]]], h: float, *, algo
         ``{"arc": {"start": [..], "center": [..], "end": [..]}, "name": "round"}``
         (arcs spanning less than 180°; the shorter arc is taken).
     h
-        Target element size.
+        Target element size on the outline.
+    h_max
+        Optional larger size in the interior (the size grows linearly with the distance from
+        the outline); useful for rigid bodies whose interior does not matter.
     algorithm
         gmsh 2D algorithm (8 = Frontal-Delaunay for quads).
 
@@ -128,7 +132,21 @@ def mesh_outline(loops: Sequence[Sequence[Mapping[str, Any]]], h: float, *, algo
         gmsh.option.setNumber("Mesh.MeshSizeFactor", 1.0)
         # subdivision halves the size; compensate so the final size is about h
         gmsh.option.setNumber("Mesh.MeshSizeMin", 2 * h)
-        gmsh.option.setNumber("Mesh.MeshSizeMax", 2 * h)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 2 * (h if h_max is None else max(h, h_max)))
+        if h_max is not None and h_max > h:
+            fields = gmsh.model.mesh.field
+            dist = fields.add("Distance")
+            fields.setNumbers(dist, "CurvesList", [c for tags in names.values() for c in tags] or
+                              [c[1] for c in gmsh.model.getEntities(1)])
+            thr = fields.add("Threshold")
+            fields.setNumber(thr, "InField", dist)
+            fields.setNumber(thr, "SizeMin", 2 * h)
+            fields.setNumber(thr, "SizeMax", 2 * h_max)
+            fields.setNumber(thr, "DistMin", 0.0)
+            fields.setNumber(thr, "DistMax", 4 * h_max)
+            fields.setAsBackgroundMesh(thr)
+            gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+            gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
         gmsh.model.mesh.generate(2)
         tags, coords, _ = gmsh.model.mesh.getNodes()
         nodes_all = coords.reshape(-1, 3)[:, :2]

@@ -1,0 +1,155 @@
+"""The fluid-structure interface term: gathers, for every Γ^FS piece of the current cut, the
+solid and fluid data the Nitsche kernel (:mod:`fsci.physics.fsi`) needs, and assembles it.
+
+Per piece (fluid-sided, 4C's "xfluid" weighting, FORMULATION §4.4 / Remark 8):
+
+* ``h_K`` = area / longest edge of the background cell (4C ``ele_vol_div_by_max_ele_surf``),
+* ``γ^F = γ0^F (μ C_T / h_K + ρ |v|_∞ / 6 + ρ h_K / (12 θ Δt))`` (4C "full, sum"),
+  ``|v|_∞`` the largest velocity component of the fluid cell and the solid edge at the start
+  of the step (frozen, so the Jacobian stays exact),
+* ``a = h_K / (γ0^t C_T)`` for the Navier-slip coefficients (37),
+* the solid velocity from the one-step-θ update of the edge nodes (static problems: 0), or a
+  prescribed ``interface_velocity``,
+* the slip length κ of the body (number, ∞, or expression evaluated at the Gauss points).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from fsci.assembly import Assembly
+from fsci.expressions import Expression
+from fsci.fem.quadrature import gauss_line
+from fsci.fields import StepContext
+from fsci.physics import fsi
+
+N_GAUSS = 3
+
+
+def gauss_unit(n: int = N_GAUSS) -> tuple[np.ndarray, np.ndarray]:
+    x, w = gauss_line(n)
+    return 0.5 * (x + 1.0), 0.5 * w
+
+
+class NitscheInterface:
+    """Coupling term on Γ^FS for all bodies."""
+
+    def __init__(self, system) -> None:
+        f = system.fluid
+        self.settings = f.spec.interface
+        self.sadj = -1.0 if self.settings.adjoint == "skew" else 1.0
+        self.gp, self.gw = gauss_unit()
+        self.traction = np.zeros((0, N_GAUSS, 2))
+        self._data = None
+
+    # ----------------------------------------------------------------- data per piece
+    def pieces(self, system) -> np.ndarray:
+        """Indices (into the cut's segments) of the pieces this term integrates: Γ^FS."""
+        return np.nonzero(system.cut.segments.fs)[0]
+
+    def blocks(self, system) -> list[np.ndarray]:
+        return [self._conn(system, self.pieces(system))]
+
+    def _conn(self, system, idx: np.ndarray) -> np.ndarray:
+        seg = system.cut.segments
+        conn = np.empty((len(idx), 6), dtype=np.int64)
+        for b, s in enumerate(system.solids):
+            m = seg.body[idx] == b
+            e = system.interface_edges[b][seg.edge[idx[m]]]
+            conn[m, 0] = s.gnode[e[:, 0]]
+            conn[m, 1] = s.gnode[e[:, 1]]
+        conn[:, 2:] = system.fluid.gnode[system.fluid.grid.cells[seg.cell[idx]]]
+        return conn
+
+    def begin_step(self, system, ctx: StepContext) -> None:
+        pass
+
+    def gather(self, system, ctx: StepContext, idx: np.ndarray) -> dict:
+        """Per-piece arrays for the kernel."""
+        seg = system.cut.segments
+        f = system.fluid
+        g = f.grid
+        st = self.settings
+        K = len(idx)
+        X = np.empty((K, 2, 2))
+        U = np.empty((K, 2, 2))
+        W = np.zeros((K, 2, 2))
+        cu = np.zeros(K)
+        vq = np.zeros((K, N_GAUSS, 2))
+        kap = np.zeros((K, N_GAUSS))
+        vmax_s = np.zeros(K)
+        for b, s in enumerate(system.solids):
+            m = np.nonzero(seg.body[idx] == b)[0]
+            if len(m) == 0:
+                continue
+            e = system.interface_edges[b][seg.edge[idx[m]]]
+            X[m] = s.X[e]
+            U[m] = s.U[e]
+            body = s.body
+            if not ctx.static and body.interface_velocity is None:
+                c = 1.0 / (ctx.theta * ctx.dt)
+                cu[m] = c
+                W[m] = c * s.Un[e] + (1.0 - ctx.theta) / ctx.theta * s.Vn[e]
+            vmax_s[m] = np.max(np.abs(s.Vn[e]), axis=(1, 2))
+            if body.interface_velocity is not None or isinstance(body.slip_length, Expression):
+                xq = self._gauss_points(X[m] + U[m], seg.s0[idx[m]], seg.s1[idx[m]])
+                if body.interface_velocity is not None:
+                    for c in range(2):
+                        vq[m, :, c] = body.interface_velocity[c](xq[..., 0], xq[..., 1], ctx.t_new)
+                if isinstance(body.slip_length, Expression):
+                    kv = body.slip_length(xq[..., 0], xq[..., 1], ctx.t_new)
+                    if np.any(kv < 0):
+                        from fsci.errors import InputError
+
+                        raise InputError(f"bodies.{body.name}.slip_length", body.slip_length.text,
+                                         f"a slip length κ ≥ 0 (the expression gives {kv.min():.3g})")
+                    kap[m] = kv
+            else:
+                kap[m] = float(body.slip_length)
+        cells = seg.cell[idx]
+        hx = g.cell_size[cells, 0]
+        hy = g.cell_size[cells, 1]
+        hk = hx * hy / np.maximum(hx, hy)
+        vmax_f = np.max(np.abs(f.Vbar[g.cells[cells]]), axis=(1, 2))
+        vmax = np.maximum(vmax_f, vmax_s)
+        gam = st.gamma_n * (f.mu * st.trace_constant / hk + f.rho * vmax / 6.0)
+        if not ctx.static:
+            gam += st.gamma_n * f.rho * hk / (12.0 * ctx.theta * ctx.dt)
+        a_t = hk / (st.gamma_t * st.trace_constant)
+        return dict(X=X, U=U, W=W, cu=cu, vq=vq, kap=kap, gam=gam, a_t=a_t, cells=cells,
+                    s0=seg.s0[idx], s1=seg.s1[idx])
+
+    def _gauss_points(self, x: np.ndarray, s0: np.ndarray, s1: np.ndarray) -> np.ndarray:
+        s = s0[:, None] + (s1 - s0)[:, None] * self.gp[None, :]
+        return x[:, 0, None, :] + s[..., None] * (x[:, 1, None, :] - x[:, 0, None, :])
+
+    # ----------------------------------------------------------------- assembly
+    def assemble(self, system, asm: Assembly, ctx: StepContext) -> None:
+        idx = self.pieces(system)
+        f = system.fluid
+        g = f.grid
+        d = self.gather(system, ctx, idx)
+        conn = self._conn(system, idx)
+        self.traction = np.zeros((len(idx), N_GAUSS, 2))
+        fsi.assemble_interface(g.xs, g.ys, g.nx, g.cells, d["cells"], d["s0"], d["s1"], d["X"], d["U"], d["W"],
+                               d["cu"], d["vq"], d["kap"], d["gam"], d["a_t"], f.V, f.P, f.mu, f.sym, self.sadj,
+                               self.gp, self.gw, conn, asm.positions(conn), *asm.target(), self.traction)
+        self._last = (idx, d)
+
+    # ----------------------------------------------------------------- post-processing
+    def forces(self, system) -> np.ndarray:
+        """Force of the fluid on each body, ∫_Γ^FS σ_Γ ds (traction form), ``(n_bodies, 2)``,
+        from the last assembly."""
+        out = np.zeros((len(system.solids), 2))
+        if not hasattr(self, "_last"):
+            return out
+        idx, d = self._last
+        x = d["X"] + d["U"]
+        L = np.linalg.norm(x[:, 1] - x[:, 0], axis=1) * (d["s1"] - d["s0"])
+        F = np.einsum("k,g,kgc->kc", L, self.gw, self.traction)
+        body = system.cut.segments.body[idx]
+        for b in range(len(system.solids)):
+            out[b] = F[body == b].sum(axis=0)
+        return out

@@ -1,0 +1,83 @@
+"""Fluid forces on bodies and flow rates through interfaces (paper (44)).
+
+* Volume (Babuška-Miller / John) form: ``F·e = -R_bulk(w_e)`` where ``R_bulk`` is the fluid
+  residual (Galerkin + stabilisation, no interface terms) and ``w_e = e`` on the nodes of the
+  cells that contain the body's wetted interface, 0 elsewhere (../shared/VALIDATION.md).
+* Traction form: ``∫_Γ^FS σ_Γ ds`` with the Nitsche interface traction σ_Γ (27), (37) — the
+  negative of the interface contributions to the solid residual.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fsci.system import _ResidualOnly
+
+
+def fluid_bulk_residual(system) -> np.ndarray:
+    """Fluid residual without interface terms and Dirichlet rows, per background node ``(n, 3)``."""
+    f = system.fluid
+    asm = _ResidualOnly(system.layout)
+    f.assemble(asm, system.ctx)
+    out = np.zeros((f.grid.n_nodes, 3))
+    act = np.nonzero(f.active)[0]
+    start = system.layout.start[f.gnode[act]]
+    for c in range(3):
+        out[act, c] = asm.rhs[start + c]
+    return out
+
+
+def volume_force(system, body: int) -> np.ndarray:
+    """Force of the fluid on ``body`` by the volume form."""
+    seg = system.cut.segments
+    cells = seg.cell[(seg.body == body) & seg.fs]
+    if len(cells) == 0:
+        return np.zeros(2)
+    nodes = np.unique(system.fluid.grid.cells[cells])
+    R = fluid_bulk_residual(system)
+    return -R[nodes, :2].sum(axis=0)
+
+
+def traction_force(system, body: int) -> np.ndarray:
+    """Force of the fluid on ``body``: ∫ σ_Γ over its wetted interface (last assembly)."""
+    for term in system.extra_terms:
+        if hasattr(term, "forces"):
+            return term.forces(system)[body]
+    return np.zeros(2)
+
+
+def interface_flow_rates(system, body: int | None = None) -> tuple[float, float]:
+    """(Φ^F, Φ^S): ∫_Γ^FS v·n with the fluid velocity and with the solid velocity (44)."""
+    from fsci.fem.q1 import q1_eval
+    from fsci.interface import gauss_unit
+
+    seg = system.cut.segments
+    f = system.fluid
+    g = f.grid
+    gp, gw = gauss_unit()
+    phi_f = 0.0
+    phi_s = 0.0
+    for b, s in enumerate(system.solids):
+        if body is not None and b != body:
+            continue
+        m = (seg.body == b) & seg.fs
+        if not m.any():
+            continue
+        e = system.interface_edges[b][seg.edge[m]]
+        x = s.X[e] + s.U[e]
+        vs_nodes = s.V[e]
+        d = x[:, 1] - x[:, 0]
+        L = np.linalg.norm(d, axis=1)
+        n = np.column_stack([d[:, 1], -d[:, 0]]) / L[:, None]
+        sq = seg.s0[m, None] + (seg.s1[m] - seg.s0[m])[:, None] * gp[None, :]
+        xq = x[:, 0, None, :] + sq[..., None] * d[:, None, :]
+        wq = (L * (seg.s1[m] - seg.s0[m]))[:, None] * gw[None, :]
+        cells = np.repeat(seg.cell[m], len(gp))
+        pts = xq.reshape(-1, 2)
+        x0 = np.column_stack([g.xs[g.cell_ij[cells, 0]], g.ys[g.cell_ij[cells, 1]]])
+        N, _ = q1_eval(2.0 * (pts - x0) / g.cell_size[cells] - 1.0)
+        v = np.einsum("ka,kad->kd", N, f.V[g.cells[cells]]).reshape(xq.shape)
+        vs = (1.0 - sq)[..., None] * vs_nodes[:, 0, None, :] + sq[..., None] * vs_nodes[:, 1, None, :]
+        phi_f += float(np.sum(wq * np.einsum("kgd,kd->kg", v, n)))
+        phi_s += float(np.sum(wq * np.einsum("kgd,kd->kg", vs, n)))
+    return phi_f, phi_s
