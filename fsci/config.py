@@ -418,6 +418,7 @@ def read_fluid(t: Table) -> Fluid:
         gamma_p=s.num("gamma_p", 0.25, lo=0), gamma_u=s.num("gamma_u", 0.25, lo=0),
         gamma_div=s.num("gamma_div", 0.00025, lo=0), gamma_gp=s.num("gamma_gp", 0.5, lo=0),
         gamma_gp_t=s.num("gamma_gp_t", 0.001, lo=0),
+        ghost_penalty=s.bool("ghost_penalty", True),
     )
     s.done()
     it = t.table("interface")

@@ -255,11 +255,9 @@ class FluidField:
                 if expr is not None:
                     self._dirichlet.append((nodes, c, expr, d.function))
         self._neumann = [(g.side_edges(nm.boundary), g.side_normal(nm.boundary), nm) for nm in fluid.neumann]
-        # the pressure is fixed only up to a constant if the normal velocity is prescribed on
-        # every side of the box (no outflow, no traction condition)
+        # sides on which the normal velocity is prescribed (no outflow, no traction condition)
         normal_comp = {"left": 0, "right": 0, "bottom": 1, "top": 1}
-        closed = {d.boundary for d in fluid.dirichlet if d.values[normal_comp[d.boundary]] is not None}
-        self.needs_pressure_pin = closed == set(normal_comp) or fluid.pressure_reference is not None
+        self._closed_sides = {d.boundary for d in fluid.dirichlet if d.values[normal_comp[d.boundary]] is not None}
         self.cut = None
 
     # ----------------------------------------------------------------- geometry
@@ -270,13 +268,68 @@ class FluidField:
         self.qptr = cut.qptr
         self.qx = cut.qx
         self.qw = cut.qw
-        self.faces = cut.faces
-        self.ghost = cut.ghost
+        keep = np.ones(len(cut.faces), dtype=bool) if self.spec.stabilization.ghost_penalty else ~cut.ghost
+        self.faces = cut.faces[keep]
+        self.ghost = cut.ghost[keep]
         self.face_nodes = fk.face_nodes(self.grid.cells, self.faces)
         self.active = cut.active.copy()
 
     def blocks(self) -> list[np.ndarray]:
         return [self.gnode[self.grid.cells[self.int_cells]], self.gnode[self.face_nodes]]
+
+    def evaluate(self, points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Velocity ``(k, 2)`` and pressure at points inside given background cells."""
+        from fsci.fem.q1 import q1_eval
+
+        g = self.grid
+        x0 = np.column_stack([g.xs[g.cell_ij[cells, 0]], g.ys[g.cell_ij[cells, 1]]])
+        N, _ = q1_eval(2.0 * (points - x0) / g.cell_size[cells] - 1.0)
+        nodes = g.cells[cells]
+        return np.einsum("ka,kad->kd", N, self.V[nodes]), np.einsum("ka,ka->k", N, self.P[nodes])
+
+    def physical_polygons(self) -> tuple[list[np.ndarray], np.ndarray]:
+        """PHYSICAL fluid cells as polygons (vertex arrays) with their parent cell ids."""
+        import shapely
+
+        from fsci.cut.state import FLUID
+
+        g = self.grid
+        polys, parents = [], []
+        full = np.nonzero(self.cut.state == FLUID)[0]
+        for c, xy in zip(full, g.nodes[g.cells[full]]):
+            polys.append(xy)
+            parents.append(c)
+        for c, geom in sorted(self.cut.polygons.items()):
+            for part in shapely.get_parts(geom):
+                polys.append(np.asarray(part.exterior.coords)[:-1])
+                parents.append(c)
+        return polys, np.asarray(parents, dtype=np.int64)
+
+    def output_mesh(self):
+        """meshio mesh of the PHYSICAL fluid: cut cells as their polygons, cell data
+        ``parent_cell``, point data velocity/pressure (evaluated in the parent cell)."""
+        import meshio
+
+        polys, parents = self.physical_polygons()
+        counts = np.array([len(p) for p in polys], dtype=np.int64)
+        pts = np.vstack(polys) if polys else np.zeros((0, 2))
+        owner = np.repeat(parents, counts)
+        v, p = self.evaluate(pts, owner) if len(pts) else (np.zeros((0, 2)), np.zeros(0))
+        offs = np.concatenate([[0], np.cumsum(counts)])
+        blocks, cdata = [], []
+        for k in sorted(set(counts.tolist())):
+            sel = np.nonzero(counts == k)[0]
+            conn = offs[sel][:, None] + np.arange(k)[None, :]
+            blocks.append(("quad" if k == 4 else ("triangle" if k == 3 else "polygon"), conn))
+            cdata.append(parents[sel])
+        return meshio.Mesh(np.column_stack([pts, np.zeros(len(pts))]), blocks,
+                           point_data={"velocity": np.column_stack([v, np.zeros(len(pts))]), "pressure": p},
+                           cell_data={"parent_cell": cdata})
+
+    def speed_polygons(self) -> tuple[list[np.ndarray], np.ndarray]:
+        polys, parents = self.physical_polygons()
+        speed = np.linalg.norm(self.V, axis=1)
+        return polys, speed[self.grid.cells[parents]].mean(axis=1)
 
     # ----------------------------------------------------------------- data
     def dirichlet_values(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -293,9 +346,22 @@ class FluidField:
             return e, e, np.zeros(0)
         return np.concatenate(nodes), np.concatenate(comps), np.concatenate(vals)
 
+    def needs_pressure_pin(self) -> bool:
+        """True if the normal velocity is prescribed on the whole fluid boundary: every box side
+        with ACTIVE edges has a normal Dirichlet condition (embedded interfaces always prescribe
+        the normal velocity), or a pressure reference point is given."""
+        if self.spec.pressure_reference is not None:
+            return True
+        g = self.grid
+        for side in ("left", "right", "bottom", "top"):
+            e = g.side_edges(side)
+            if side not in self._closed_sides and np.any(self.active[e[:, 0]] & self.active[e[:, 1]]):
+                return False
+        return True
+
     def pressure_pin(self) -> int | None:
         """Background node whose pressure is fixed to 0, or ``None`` if pressure is determined."""
-        if not self.needs_pressure_pin:
+        if not self.needs_pressure_pin():
             return None
         ref = self.spec.pressure_reference
         act = np.nonzero(self.active)[0]

@@ -20,6 +20,7 @@ import math
 import numpy as np
 
 from fsci.assembly import Assembly
+from fsci.errors import InputError
 from fsci.expressions import Expression
 from fsci.fem.quadrature import gauss_line
 from fsci.fields import StepContext
@@ -93,19 +94,16 @@ class NitscheInterface:
                 cu[m] = c
                 W[m] = c * s.Un[e] + (1.0 - ctx.theta) / ctx.theta * s.Vn[e]
             vmax_s[m] = np.max(np.abs(s.Vn[e]), axis=(1, 2))
-            if body.interface_velocity is not None or isinstance(body.slip_length, Expression):
-                xq = self._gauss_points(X[m] + U[m], seg.s0[idx[m]], seg.s1[idx[m]])
-                if body.interface_velocity is not None:
-                    for c in range(2):
-                        vq[m, :, c] = body.interface_velocity[c](xq[..., 0], xq[..., 1], ctx.t_new)
-                if isinstance(body.slip_length, Expression):
-                    kv = body.slip_length(xq[..., 0], xq[..., 1], ctx.t_new)
-                    if np.any(kv < 0):
-                        from fsci.errors import InputError
-
-                        raise InputError(f"bodies.{body.name}.slip_length", body.slip_length.text,
-                                         f"a slip length κ ≥ 0 (the expression gives {kv.min():.3g})")
-                    kap[m] = kv
+            xq = self._gauss_points(X[m] + U[m], seg.s0[idx[m]], seg.s1[idx[m]])
+            if body.interface_velocity is not None:
+                for c in range(2):
+                    vq[m, :, c] = body.interface_velocity[c](xq[..., 0], xq[..., 1], ctx.t_new)
+            if isinstance(body.slip_length, Expression):
+                kv = body.slip_length(xq[..., 0], xq[..., 1], ctx.t_new)
+                if np.any(kv < 0):
+                    raise InputError(f"bodies.{body.name}.slip_length", body.slip_length.text,
+                                     f"a slip length κ ≥ 0 (the expression gives {kv.min():.3g})")
+                kap[m] = kv
             else:
                 kap[m] = float(body.slip_length)
         cells = seg.cell[idx]
@@ -139,6 +137,33 @@ class NitscheInterface:
         self._last = (idx, d)
 
     # ----------------------------------------------------------------- post-processing
+    def output_meshes(self, system):
+        """Interface pieces as line cells with the traction σ_Γ (mean over the piece), the
+        body id and the Γ^FS flag."""
+        import meshio
+
+        seg = system.cut.segments
+        pts, fs, body, trac = [], [], [], []
+        last_idx, tr = (self._last[0], self.traction) if hasattr(self, "_last") else (np.zeros(0, int), None)
+        mean_tr = np.zeros((len(seg), 2))
+        if tr is not None and len(last_idx) == len(tr) and len(last_idx) and last_idx.max() < len(seg):
+            mean_tr[last_idx] = np.einsum("g,kgc->kc", self.gw, tr)
+        for b in range(len(system.solids)):
+            p, _ = system.cut.interface_points(b)
+            m = seg.body == b
+            pts.append(p)
+            fs.append(seg.fs[m])
+            body.append(np.full(m.sum(), b))
+            trac.append(mean_tr[m])
+        P = np.vstack(pts).reshape(-1, 2) if pts else np.zeros((0, 2))
+        conn = np.arange(len(P)).reshape(-1, 2)
+        T = np.vstack(trac) if trac else np.zeros((0, 2))
+        mesh = meshio.Mesh(np.column_stack([P, np.zeros(len(P))]), [("line", conn)],
+                           cell_data={"traction": [np.column_stack([T, np.zeros(len(T))])],
+                                      "fluid_wetted": [np.concatenate(fs).astype(np.int32) if fs else np.zeros(0, np.int32)],
+                                      "body": [np.concatenate(body).astype(np.int32) if body else np.zeros(0, np.int32)]})
+        return [("interface", mesh)]
+
     def forces(self, system) -> np.ndarray:
         """Force of the fluid on each body, ∫_Γ^FS σ_Γ ds (traction form), ``(n_bodies, 2)``,
         from the last assembly."""

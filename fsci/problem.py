@@ -78,6 +78,7 @@ class Stabilization:
     gamma_div: float = 0.00025
     gamma_gp: float = 0.5
     gamma_gp_t: float = 0.001
+    ghost_penalty: bool = True  # False drops every face term on faces of cut cells (studies only)
 
 
 @dataclass

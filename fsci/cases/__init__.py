@@ -6,13 +6,15 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
-from fsci.cases import cavity, dfg, turek_hron
+from fsci.cases import cavity, dfg, moving_cylinder, turek_hron
 
 CASES: dict[str, tuple[str, Callable[[], dict[str, Any]]]] = {
     "turek-hron-csm1": ("Turek-Hron CSM1: elastic bar under gravity, static (St. Venant-Kirchhoff)", turek_hron.csm1),
     "turek-hron-csm3": ("Turek-Hron CSM3: elastic bar released under gravity, dynamic", turek_hron.csm3),
     "cavity": ("Lid-driven cavity, steady Navier-Stokes (--set re=100|1000)", cavity.cavity),
     "dfg-2d-1": ("DFG 2D-1 flow around a cylinder (Re 20), cylinder embedded (CutFEM)", dfg.dfg_2d_1),
+    "moving-cylinder": ("Cylinder with prescribed oscillation and pulsation, mass balance (45)-(46)",
+                        moving_cylinder.moving_cylinder),
 }
 
 

@@ -32,7 +32,7 @@ from fsci.geometry.outlines import Outline
 from fsci.mesh.grid import Grid
 
 FLUID, CUT, SOLID = 0, 1, 2
-AREA_TOL = 1e-14  # relative to the cell area: below this a fluid or solid part is treated as empty
+AREA_TOL = 1e-15  # relative to the cell area: below this a fluid or solid part is treated as empty
 
 
 @dataclass
@@ -315,14 +315,27 @@ class CutState:
             nrm[m] = o.normals()[edge[m]]
         delta = 1e-8 * hmin
         probe = mid + delta * nrm
-        fs = shapely.contains_xy(self.fluid, probe[:, 0], probe[:, 1]) if not self.fluid.is_empty else np.zeros(len(body), bool)
+        if self.fluid.is_empty:
+            fs = np.zeros(len(body), bool)
+        else:
+            # wetted if the outward side is fluid; a film thinner than the probe distance is
+            # recognised by the piece lying on the fluid region up to round-off
+            fs = shapely.contains_xy(self.fluid, probe[:, 0], probe[:, 1])
+            scale = 1.0 + float(np.max(np.abs(mid))) if len(mid) else 1.0
+            near = ~fs
+            if near.any():
+                dist = shapely.distance(shapely.points(mid[near]), self.fluid)
+                fs[np.nonzero(near)[0][dist <= 8 * np.finfo(float).eps * scale]] = True
         cell = g.locate(np.where(fs[:, None], probe, mid))
         # an FS piece must sit in a cell with fluid; fix round-off cases on grid lines
         bad = fs & (self.state[cell] == SOLID)
         for k in np.nonzero(bad)[0]:
             cand = g.locate(np.array([probe[k], mid[k], mid[k] - delta * nrm[k]]))
             ok = [c for c in cand if self.state[c] != SOLID]
-            cell[k] = ok[0] if ok else cell[k]
+            if ok:
+                cell[k] = ok[0]
+            else:  # a film below the area tolerance: not fluid (keeps quadrature and interface consistent)
+                fs[k] = False
         self.segments = Segments(body, edge, s0, s1, cell.astype(np.int64), fs.astype(bool))
 
     # ----------------------------------------------------------------- active set and faces

@@ -1,0 +1,276 @@
+"""Unfitted (CutFEM) Navier-Stokes: ghost-penalty conditioning, manufactured solutions on an
+embedded disk, Navier slip (Couette exact, Poiseuille rates for κ = 0, finite, ∞), Jacobian of
+the Nitsche coupling, DFG 2D-1, the moving cylinder's mass balance and bad input."""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from fsci.cli import main
+from fsci.config import problem_from_dict
+from fsci.errors import FsciWarning, InputError
+from fsci.fields import StepContext
+from fsci.post.errors import fluid_errors, fluid_values
+from fsci.simulation import Simulation
+from fsci.system import System
+
+from cutcases import box_minus_disk, fluid_box, rotated_wall, static_case
+from helpers import jacobian_fd_error
+from mms import navier_stokes, rates, x, y
+
+
+def _error_quadrature(system, degree=8, n_full=4):
+    """High-degree quadrature on the PHYSICAL domain for error norms."""
+    from fsci.cut.state import CutState
+    from fsci.post.errors import grid_cell_quadrature
+
+    cut = CutState(system.fluid.grid, system.outlines(), quad_degree=degree)
+    from fsci.cut.state import FLUID
+
+    full = np.nonzero(cut.state == FLUID)[0]
+    xq, wq, cq = grid_cell_quadrature(system.fluid.grid, full, n_full)
+    owner = np.repeat(cut.int_cells, np.diff(cut.qptr))
+    on_cut = cut.state[owner] != FLUID
+    return (np.vstack([xq, cut.qx[on_cut]]), np.concatenate([wq, cut.qw[on_cut]]),
+            np.concatenate([cq, owner[on_cut]]))
+
+
+# ----------------------------------------------------------------------------- ghost penalty
+def _stokes_condition(frac, gp):
+    """Condition number of a small Stokes system whose cut cell column has fluid fraction ``frac``."""
+    n = 8
+    h = 1.0 / n
+    xc = 5 * h + frac * h
+    wall = rotated_wall("step", math.pi / 2, (xc, 0.5), 0.0, -1)  # solid for x > xc
+    stab = {"ghost_penalty": gp}
+    fluid = fluid_box(n, mu=1.0, stabilization=stab,
+                      dirichlet=[{"boundary": s, "value": [0.0, 0.0]} for s in ("left", "right", "bottom", "top")])
+    system = System(problem_from_dict(static_case([wall], fluid)))
+    ctx = StepContext(0.0, 1.0, 1.0, 1.0, True)
+    system.begin_step(ctx)
+    A = system.assemble(ctx).matrix().toarray()
+    dofs = np.concatenate([system.field_dofs["velocity"], system.field_dofs["pressure"]])
+    return np.linalg.cond(A[np.ix_(dofs, dofs)])
+
+
+def test_ghost_penalty_keeps_the_condition_number_bounded():
+    fracs = [1e-10, 1e-8, 1e-6, 1e-4, 1e-2, 0.1, 0.5, 0.9]
+    with_gp = np.array([_stokes_condition(f, True) for f in fracs])
+    assert with_gp.max() / with_gp.min() < 10.0, with_gp
+    without = np.array([_stokes_condition(f, False) for f in fracs[:3]])
+    assert without.max() / with_gp.max() > 1e6, without
+
+
+# ----------------------------------------------------------------------------- MMS on a disk
+def _disk_mms(v, p, mu, n, rho=1.0):
+    ms = navier_stokes(v, p, rho, mu)
+    wall = box_minus_disk(interface_velocity=ms["v_str"])
+    fluid = fluid_box(n, mu=mu, rho=rho, body_force=ms["f_str"], pressure_reference=[0.5, 0.5])
+    sim = Simulation(problem_from_dict(static_case([wall], fluid)))
+    sim.run()
+    quad = _error_quadrature(sim.system)
+    return fluid_errors(sim.system.fluid, ms["v"], ms["grad"], ms["p"], quad)
+
+
+@pytest.mark.parametrize("which", ["polynomial", "taylor_green"])
+def test_embedded_disk_manufactured_rates(which):
+    if which == "polynomial":  # VALIDATION.md 3.1 (Massing et al.); convection included
+        v = (20 * x * y ** 3, 5 * x ** 4 - 5 * y ** 4)
+        p = 60 * x ** 2 * y - 20 * y ** 3
+        mu = 1.0
+    else:  # Taylor-Green vortex field, steady with forcing
+        v = (-sp.cos(2 * sp.pi * x) * sp.sin(2 * sp.pi * y), sp.sin(2 * sp.pi * x) * sp.cos(2 * sp.pi * y))
+        p = -sp.Rational(1, 4) * (sp.cos(4 * sp.pi * x) + sp.cos(4 * sp.pi * y))
+        mu = 0.1
+    ns = (8, 16, 32, 64)
+    errs = [_disk_mms(v, p, mu, n) for n in ns]
+    hs = [1.0 / n for n in ns]
+    rv = rates(hs, [e["v_l2"] for e in errs])
+    rh = rates(hs, [e["v_h1"] for e in errs])
+    rp = rates(hs, [e["p_l2"] for e in errs])
+    assert rv[-1] > 1.85 and rv[-2] > 1.8, rv
+    assert rh[-1] > 0.9, rh
+    assert rp[-1] > 1.0, rp
+
+
+# ----------------------------------------------------------------------------- Navier slip
+ANGLE = math.radians(17.3)
+T = [math.cos(ANGLE), math.sin(ANGLE)]
+M = [-math.sin(ANGLE), math.cos(ANGLE)]
+C = [0.5, 0.5]
+HALF = 0.25
+
+
+def _yp(X, Y):
+    return (X - C[0]) * M[0] + (Y - C[1]) * M[1]
+
+
+def _channel(n, kappa_bottom, kappa_top, top_velocity, profile_xy, mu, body_force=None):
+    """Channel |y'| < HALF between two rigid walls, box sides Dirichlet with the exact profile."""
+    bottom = rotated_wall("bottom", ANGLE, C, -HALF, -1, slip_length=kappa_bottom)
+    top = rotated_wall("top", ANGLE, C, HALF, +1, slip_length=kappa_top,
+                       interface_velocity=[f"{top_velocity}*{T[0]!r}", f"{top_velocity}*{T[1]!r}"])
+    fluid = fluid_box(n, mu=mu, dirichlet=[{"boundary": s, "value": profile_xy} for s in ("left", "right", "bottom", "top")])
+    if body_force is not None:
+        fluid["body_force"] = body_force
+    return static_case([bottom, top], fluid)
+
+
+def _yprime_expr():
+    return f"((x - {C[0]!r})*{M[0]!r} + (y - {C[1]!r})*{M[1]!r})"
+
+
+@pytest.mark.parametrize("b", [0.0, 0.05, 0.3])
+def test_couette_with_slip_is_exact(b):
+    """Linear Couette profile with slip length b on both walls lies in Q1: exact to solver tol."""
+    U, mu, H = 1.0, 0.1, 2 * HALF
+    yp = _yprime_expr()
+    u = f"({U}*({yp} + {HALF} + {b})/({H} + 2*{b}))"
+    case = _channel(12, b, b, U, [f"{u}*{T[0]!r}", f"{u}*{T[1]!r}"], mu)
+    sim = Simulation(problem_from_dict(case))
+    sim.run()
+    f = sim.system.fluid
+    X = f.grid.nodes[f.active]
+    uex = U * (_yp(X[:, 0], X[:, 1]) + HALF + b) / (H + 2 * b)
+    err = np.abs(f.V[f.active] - uex[:, None] * np.array(T)[None, :]).max()
+    assert err < 1e-9, err
+    assert np.abs(f.P[f.active] - f.P[f.active].mean()).max() < 1e-8
+
+
+@pytest.mark.parametrize("kind", ["noslip", "slip", "free"])
+def test_poiseuille_with_slip_converges(kind):
+    """Pressure-driven flow (body force G along the channel): κ = 0 both walls, κ = b both
+    walls, or no-slip at the bottom and free slip (κ = ∞) at the top."""
+    G, mu, H = 1.0, 0.1, 2 * HALF
+    b = 0.05
+    yp = f"({_yprime_expr()} + {HALF})"  # distance from the bottom wall
+    if kind == "noslip":
+        kb, kt, prof = 0.0, 0.0, f"({G}/(2*{mu})*{yp}*({H} - {yp}))"
+        ex = lambda s: G / (2 * mu) * s * (H - s)  # noqa: E731
+    elif kind == "slip":
+        kb, kt, prof = b, b, f"({G}/(2*{mu})*({yp}*({H} - {yp}) + {b}*{H}))"
+        ex = lambda s: G / (2 * mu) * (s * (H - s) + b * H)  # noqa: E731
+    else:
+        kb, kt, prof = 0.0, "inf", f"({G}/(2*{mu})*(2*{H}*{yp} - {yp}**2))"
+        ex = lambda s: G / (2 * mu) * (2 * H * s - s * s)  # noqa: E731
+    errs, hs = [], []
+    for n in (8, 16, 32, 64):
+        case = _channel(n, kb, kt, 0.0, [f"{prof}*{T[0]!r}", f"{prof}*{T[1]!r}"], mu,
+                        body_force=[G * T[0], G * T[1]])
+        sim = Simulation(problem_from_dict(case))
+        sim.run()
+        s_ = sim.system
+        xq, wq, cq = _error_quadrature(s_)
+        v, gv, _ = fluid_values(s_.fluid, xq, cq)
+        sd = _yp(xq[:, 0], xq[:, 1]) + HALF
+        ve = ex(sd)[:, None] * np.array(T)[None, :]
+        errs.append(float(np.sqrt(np.dot(wq, np.sum((v - ve) ** 2, axis=1)))))
+        hs.append(1.0 / n)
+    r = rates(hs, errs)
+    assert r[-1] > 1.8 and errs[-1] < 2e-3 * ex(HALF), (errs, r)
+
+
+# ----------------------------------------------------------------------------- Jacobian
+@pytest.mark.parametrize("adjoint, slip", [("skew", 0.0), ("symmetric", 0.2), ("skew", "inf")])
+def test_nitsche_coupling_jacobian_matches_finite_differences(adjoint, slip):
+    """Interface terms with a free (elastic) body: fluid-fluid, fluid-solid, solid-fluid and
+    solid-solid blocks against central differences, cut frozen."""
+    body = {"name": "blob", "material": {"law": "neo_hooke", "E": 10.0, "nu": 0.3, "rho": 1.0},
+            "mesh": {"type": "rectangle", "x0": 0.33, "x1": 0.71, "y0": 0.37, "y1": 0.62, "nx": 3, "ny": 2},
+            "slip_length": slip}
+    fluid = fluid_box(5, mu=0.3, interface={"adjoint": adjoint},
+                      dirichlet=[{"boundary": "left", "value": [1.0, 0.0]}])
+    case = static_case([body], fluid)
+    case["time"] = {"type": "transient", "theta": 1.0, "t_end": 0.1, "dt": 0.1}
+    system = System(problem_from_dict(case))
+    ctx = StepContext(0.0, 0.1, 0.1, 1.0, False)
+    rng = np.random.default_rng(5)
+    system.begin_step(ctx)
+    x0 = 0.01 * rng.standard_normal(system.layout.n_dofs)
+    x0[system.field_dofs["velocity"]] += rng.standard_normal(len(system.field_dofs["velocity"]))
+    assert jacobian_fd_error(system, ctx, x0, h=1e-7) < 1e-6
+
+
+# ----------------------------------------------------------------------------- cases
+def test_dfg_2d_1_within_one_percent(tmp_path):
+    out = tmp_path / "dfg"
+    assert main(["run", "dfg-2d-1", "--out", str(out)]) == 0
+    res = json.loads((out / "results.json").read_text())
+    assert abs(res["cd"] / 5.57953523384 - 1) < 0.01
+    assert abs(res["dp"] / 0.11752016697 - 1) < 0.01
+    assert abs(res["cd_traction"] / res["cd"] - 1) < 1e-6  # volume and traction forms agree
+    assert (out / "vtu").exists() and list((out / "vtu").glob("interface_*.vtu"))
+
+
+def test_moving_cylinder_mass_balance_at_solver_tolerance(tmp_path):
+    """Paper (46): outflow = ∫ ∂u/∂t·n at every step, to solver tolerance; the weak-imposition
+    error Φ² is much larger but small."""
+    out = tmp_path / "mc"
+    assert main(["run", "moving-cylinder", "--set", "n=24", "--set", "time.dt=0.05", "--out", str(out)]) == 0
+    rows = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    phi = np.abs(rows["mass_phi_solid"]).max()
+    assert phi > 0.01
+    assert np.all(rows["mass_err1"] < 1e-9 * phi)
+    assert rows["mass_err2"].max() < 0.05 * phi
+    assert rows["mass_err2"].max() > 1e3 * rows["mass_err1"].max()
+
+
+# ----------------------------------------------------------------------------- bad input
+def _cut_case(body_overrides=None, fluid_overrides=None):
+    body = {"name": "blob", "rigid": True, "material": {"law": "neo_hooke", "E": 1.0, "nu": 0.3},
+            "mesh": {"type": "rectangle", "x0": 0.3, "x1": 0.6, "y0": 0.3, "y1": 0.6, "nx": 3, "ny": 3},
+            "dirichlet": [{"boundary": "body", "value": [0.0, 0.0]}]}
+    body.update(body_overrides or {})
+    fluid = fluid_box(10, dirichlet=[{"boundary": "left", "value": [1.0, 0.0]}])
+    fluid.update(fluid_overrides or {})
+    return static_case([body], fluid)
+
+
+def test_negative_slip_length_is_rejected():
+    with pytest.raises(InputError, match=r"slip_length.*κ ≥ 0"):
+        problem_from_dict(_cut_case({"slip_length": -0.1}))
+
+
+def test_outline_leaving_the_box_is_rejected():
+    case = _cut_case({"mesh": {"type": "rectangle", "x0": 0.8, "x1": 1.3, "y0": 0.3, "y1": 0.6, "nx": 3, "ny": 3}})
+    with pytest.raises(InputError, match="leaves the fluid box"):
+        System(problem_from_dict(case))
+
+
+def test_self_intersecting_outline_is_rejected(tmp_path):
+    """A body whose mesh parts overlap (valid cells, crossing outline)."""
+    import meshio
+
+    pts = np.array([[0.3, 0.3], [0.5, 0.3], [0.5, 0.5], [0.3, 0.5], [0.4, 0.4], [0.6, 0.4], [0.6, 0.6], [0.4, 0.6]])
+    path = tmp_path / "overlap.msh"
+    meshio.write(str(path), meshio.Mesh(np.column_stack([pts, np.zeros(8)]), [("quad", np.array([[0, 1, 2, 3], [4, 5, 6, 7]]))]),
+                 file_format="gmsh22", binary=False)
+    case = _cut_case({"mesh": {"type": "file", "path": str(path)}})
+    with pytest.raises(InputError, match="self-intersects"):
+        System(problem_from_dict(case))
+
+
+def test_thin_body_warns_with_numbers():
+    case = _cut_case({"mesh": {"type": "rectangle", "x0": 0.3, "x1": 0.7, "y0": 0.5, "y1": 0.53, "nx": 8, "ny": 1}})
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        System(problem_from_dict(case))
+    msgs = [str(w.message) for w in rec if issubclass(w.category, FsciWarning)]
+    assert msgs and "0.03" in msgs[0] and "0.1" in msgs[0]
+
+
+def test_cli_reports_geometry_errors(tmp_path, capsys):
+    import tomli_w
+
+    case = _cut_case({"mesh": {"type": "rectangle", "x0": 0.8, "x1": 1.3, "y0": 0.3, "y1": 0.6, "nx": 3, "ny": 3}})
+    p = tmp_path / "c.toml"
+    p.write_text(tomli_w.dumps(case))
+    assert main(["run", str(p), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "leaves the fluid box" in err and len(err.strip().splitlines()) == 1
