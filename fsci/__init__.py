@@ -6,4 +6,10 @@ Ager, Seitz, Wall (2019), "A consistent and comprehensive computational approach
 general fluid-structure-contact interaction problems".
 """
 
+import os as _os
+
+# MKL's conditional numerical reproducibility: PARDISO then gives the same bits in every run
+# on this machine (needed for bit-identical restarts; no measurable cost, docs/performance.md).
+_os.environ.setdefault("MKL_CBWR", "AUTO")
+
 __version__ = "0.1.0"

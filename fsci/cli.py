@@ -62,7 +62,24 @@ def cmd_run(args) -> int:
     out = Path(args.out) if args.out else Path("results") / problem.name
     out.mkdir(parents=True, exist_ok=True)
     (out / "case.toml").write_text(_to_toml(case))
-    sim = Simulation(problem, out, Monitor())
+    sim = Simulation(problem, out, Monitor(), base_dir=base)
+    try:
+        res = sim.run()
+    except SolverError as exc:
+        print(f"fsci: solver failed: {exc}. Results up to t = {sim.t:.6g} are in {out}", file=sys.stderr)
+        return 3
+    _report(res, out)
+    return 0
+
+
+def cmd_resume(args) -> int:
+    from fsci.monitor import Monitor
+    from fsci.simulation import Simulation
+
+    out = Path(args.dir)
+    if not (out / "checkpoint.npz").exists() or not (out / "case.toml").exists():
+        raise InputError("resume", str(out), "a run directory with case.toml and checkpoint.npz")
+    sim = Simulation.resume(out, args.set, Monitor())
     try:
         res = sim.run()
     except SolverError as exc:
@@ -101,6 +118,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a key (repeatable)")
     p.add_argument("--out", metavar="DIR", help="output directory (default results/<case>)")
     p.set_defaults(func=cmd_run)
+    p = sub.add_parser("resume", help="continue a run from the checkpoint in its output directory")
+    p.add_argument("dir")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a key, e.g. time.t_end")
+    p.set_defaults(func=cmd_resume)
     args = parser.parse_args(argv)
     try:
         return args.func(args)

@@ -138,8 +138,12 @@ class SolidField:
             return (U - self.Un) / ctx.dt
         return (U - self.Un) / (ctx.theta * ctx.dt) - (1.0 - ctx.theta) / ctx.theta * self.Vn
 
-    def end_step(self, ctx: StepContext) -> None:
+    def finish_step(self, ctx: StepContext) -> None:
+        """Derived quantities of the converged step (velocity), old level untouched."""
         self.V = self.velocity_from(self.U, ctx)
+
+    def end_step(self, ctx: StepContext) -> None:
+        """Move to the next time level."""
         self.Un = self.U.copy()
         self.Vn = self.V.copy()
 
@@ -254,7 +258,7 @@ class FluidField:
             for c, expr in enumerate(d.values):
                 if expr is not None:
                     self._dirichlet.append((nodes, c, expr, d.function))
-        self._neumann = [(g.side_edges(nm.boundary), g.side_normal(nm.boundary), nm) for nm in fluid.neumann]
+        self._neumann = [(nm.boundary, g.side_normal(nm.boundary), nm) for nm in fluid.neumann]
         # sides on which the normal velocity is prescribed (no outflow, no traction condition)
         normal_comp = {"left": 0, "right": 0, "bottom": 1, "top": 1}
         self._closed_sides = {d.boundary for d in fluid.dirichlet if d.values[normal_comp[d.boundary]] is not None}
@@ -408,17 +412,24 @@ class FluidField:
         self._assemble_neumann(asm, ctx)
 
     def _assemble_neumann(self, asm: Assembly, ctx: StepContext) -> None:
+        """Fluid tractions on box sides, integrated over the PHYSICAL part of each side."""
         if not self._neumann:
             return
-        gx = np.array([-1.0, 1.0]) / np.sqrt(3.0)
+        gx, gw = np.polynomial.legendre.leggauss(2)
         X = self.grid.nodes
         start = asm.layout.start
-        for edges, normal, nm in self._neumann:
+        for side, normal, nm in self._neumann:
+            edges_all = self.grid.side_edges(side)
+            k, s0, s1 = self.cut.boundary_pieces(side)
+            if len(k) == 0:
+                continue
+            edges = edges_all[k]
             a, b = edges[:, 0], edges[:, 1]
-            length = np.linalg.norm(X[b] - X[a], axis=1)
-            for s in gx:
-                Na, Nb = 0.5 * (1 - s), 0.5 * (1 + s)
-                p = Na * X[a] + Nb * X[b]
+            length = np.linalg.norm(X[b] - X[a], axis=1) * (s1 - s0)
+            for xg, wg in zip(gx, gw):
+                s = s0 + 0.5 * (xg + 1.0) * (s1 - s0)
+                Na, Nb = 1.0 - s, s
+                p = Na[:, None] * X[a] + Nb[:, None] * X[b]
                 traction = np.zeros((len(edges), 2))
                 for t, w in ((ctx.t_new, ctx.w_new), (ctx.t_old, ctx.w_old)):
                     if w == 0.0:
@@ -430,9 +441,8 @@ class FluidField:
                     else:  # pressure: h = -p n (compressive normal traction)
                         pv = nm.values[0](p[:, 0], p[:, 1], t) * f
                         traction -= pv[:, None] * normal[None, :]
-                wl = 0.5 * length
+                wl = 0.5 * wg * length
                 for node, Nn in ((a, Na), (b, Nb)):
-                    ok = self.active[node]
-                    dof = start[self.gnode[node[ok]]]
+                    dof = start[self.gnode[node]]
                     for c in range(2):
-                        np.add.at(asm.rhs, dof + c, -(wl * Nn * traction[:, c])[ok])
+                        np.add.at(asm.rhs, dof + c, -(wl * Nn * traction[:, c]))

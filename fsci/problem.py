@@ -90,7 +90,7 @@ class InterfaceSettings:
     trace_constant: float = 1.43426  # C_T of Q1 (4C, pseudo-2D)
     adjoint: str = "skew"  # viscous adjoint: "skew" (s_adj = -1) or "symmetric" (+1)
     island_factor: float = 2.0  # islands: bounding-box diagonal < factor * cell diagonal
-    eps_geom: float = 1e-12  # re-cut while the displacement moved more than this since the last cut
+    eps_geom: float = 1e-9  # re-cut while the bodies moved more than eps_geom * (smallest cell) since the last cut
     grow_only_after: int = 5  # Newton iterations after which the ACTIVE set may only grow
     max_layout_changes: int = 5  # ACTIVE-set changes tolerated in one step before growing only
 
@@ -140,7 +140,7 @@ class SolverSettings:
     max_step_cuts: int = 6
     step_cut_factor: float = 0.5
     dt_min: float = 0.0
-    outer_tol: float = 1e-6  # steady flow: relative change of the frozen stabilisation velocity
+    outer_tol: float = 1e-4  # steady flow: relative change of the frozen stabilisation velocity
     outer_max: int = 8
 
 
@@ -170,6 +170,7 @@ class Output:
     every: int = 1
     figures: bool = True
     fields: bool = True
+    checkpoint_every: int = 0  # steps between checkpoints (0: only at the end and on failure)
 
 
 @dataclass

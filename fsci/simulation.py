@@ -33,8 +33,10 @@ EPS_T = 1e-12
 class Simulation:
     """Runs a :class:`Problem` and writes its outputs into ``out_dir`` (if given)."""
 
-    def __init__(self, problem: Problem, out_dir: Path | None = None, monitor=None) -> None:
+    def __init__(self, problem: Problem, out_dir: Path | None = None, monitor=None,
+                 base_dir: Path | None = None) -> None:
         self.problem = problem
+        self.base_dir = base_dir
         self.out_dir = Path(out_dir) if out_dir is not None else None
         self.system = System(problem)
         self.linear = make_linear_solver(problem.solver.linear)
@@ -48,7 +50,33 @@ class Simulation:
         self.wall_start = time.perf_counter()
         self.writer = None
         self.step_hooks: list[Callable[["Simulation", StepContext, NewtonReport], None]] = []
-        self.failure_hook: Callable[["Simulation", StepContext], None] | None = None
+
+    @classmethod
+    def resume(cls, out_dir: Path, overrides: list[str] | None = None, monitor=None) -> "Simulation":
+        """Continue the run whose checkpoint and case.toml are in ``out_dir``."""
+        from fsci.config import apply_override, load_toml, problem_from_dict
+        from fsci.io.checkpoint import read_checkpoint
+        from fsci.io.vtk import VTKWriter
+        from fsci.system import restore
+
+        out_dir = Path(out_dir)
+        case = load_toml(out_dir / "case.toml")
+        for o in overrides or []:
+            apply_override(case, o)
+        state, meta = read_checkpoint(out_dir)
+        base = Path(meta["base_dir"]) if meta.get("base_dir") else None
+        sim = cls(problem_from_dict(case, base), out_dir, monitor, base_dir=base)
+        restore(sim.system, state)
+        sim.t = meta["t"]
+        sim.step = meta["step"]
+        sim.newton_total = meta["newton_total"]
+        sim.dt_current = meta["dt_current"]
+        sim.history = meta["history"]
+        if meta.get("writer") is not None and sim.problem.output.fields:
+            sim.writer = VTKWriter(out_dir)
+            sim.writer.count = meta["writer"]["count"]
+            sim.writer.entries = [tuple(e) for e in meta["writer"]["entries"]]
+        return sim
 
     # ----------------------------------------------------------------- stepping
     def nominal_dt(self, t: float) -> tuple[float, float]:
@@ -68,24 +96,9 @@ class Simulation:
         return dt
 
     def solve_step(self, ctx: StepContext) -> NewtonReport:
-        """Newton for one step; for steady flow with outer updates of the frozen velocity."""
-        sys = self.system
-        rep = solve_nonlinear(sys, ctx, self.problem.solver, self.linear, self._newton_monitor(ctx))
-        if not (ctx.static and sys.fluid is not None and rep.converged):
-            return rep
-        its = rep.iterations
-        for _ in range(self.problem.solver.outer_max):
-            f = sys.fluid
-            change = np.linalg.norm(f.V - f.Vbar) / max(np.linalg.norm(f.V), 1e-300)
-            if change <= self.problem.solver.outer_tol:
-                break
-            f.Vbar = f.V.copy()
-            rep = solve_nonlinear(sys, ctx, self.problem.solver, self.linear, self._newton_monitor(ctx))
-            its += rep.iterations
-            if not rep.converged:
-                return rep
-        rep.iterations = its
-        return rep
+        """Newton for one step (steady flow: the frozen stabilisation velocity is lagged inside
+        Newton, see :meth:`fsci.system.System.before_iteration`)."""
+        return solve_nonlinear(self.system, ctx, self.problem.solver, self.linear, self._newton_monitor(ctx))
 
     def _newton_monitor(self, ctx: StepContext):
         if self.monitor is None:
@@ -113,11 +126,17 @@ class Simulation:
                 self.monitor.message(f"step {self.step + 1} at t={self.t:.6g}: {rep.reason}; "
                                      f"retrying with dt={new_dt:.4g}")
             if cuts > p.solver.max_step_cuts or new_dt < p.solver.dt_min:
-                if self.failure_hook is not None:
-                    self.failure_hook(self, ctx)
+                if self.out_dir is not None:
+                    from fsci.io.checkpoint import write_checkpoint
+
+                    write_checkpoint(self, self.out_dir)
+                if self.system.fluid is not None and self.system.solids:
+                    self.system.update_cut(keep_nodes=self.system.fluid.active)  # consistent outputs
                 raise SolverError(f"step {self.step + 1} at t = {self.t:.6g} failed after {cuts - 1} step cuts "
                                   f"(dt = {dt:.4g}): {rep.reason}")
             dt = new_dt
+        self.system.finish_step(ctx)
+        row_values = self.quantities.step_values()
         self.system.end_step(ctx)
         self.t = ctx.t_new
         self.step += 1
@@ -126,7 +145,7 @@ class Simulation:
         if self.dt_current is not None and self.dt_current >= dt_nom:
             self.dt_current = None
         row = {"time": self.t, "step": self.step, "dt": dt, "newton_iterations": rep.iterations}
-        row.update(self.quantities.step_values())
+        row.update(row_values)
         self.history.append(row)
         for hook in self.step_hooks:
             hook(self, ctx, rep)
@@ -157,6 +176,11 @@ class Simulation:
                     self.monitor.step_done(self)
                 if self.writer is not None and every > 0 and self.step % every == 0:
                     self.writer.write(self.system, self.t)
+                ck = self.problem.output.checkpoint_every
+                if self.out_dir is not None and ck > 0 and self.step % ck == 0:
+                    from fsci.io.checkpoint import write_checkpoint
+
+                    write_checkpoint(self, self.out_dir)
         finally:
             if self.monitor is not None:
                 self.monitor.stop(self)
@@ -164,6 +188,10 @@ class Simulation:
                 self.write_history()
         if self.writer is not None and (every == 0 or self.step % every != 0):
             self.writer.write(self.system, self.t)
+        if self.out_dir is not None:
+            from fsci.io.checkpoint import write_checkpoint
+
+            write_checkpoint(self, self.out_dir)
         return self.finalize()
 
     def results(self) -> dict:

@@ -97,18 +97,31 @@ class System:
             self.build_layout()
         return changed
 
+    def converged_extra(self, settings) -> bool:
+        """Additional convergence condition: for steady flow, the lagged stabilisation velocity
+        changed by at most ``solver.outer_tol`` (relative) in the last iteration."""
+        return self.stab_change <= settings.outer_tol
+
     def moving(self) -> bool:
         """True if a body's shape or position is an unknown (its cut may change in Newton)."""
         return any(not s.fixed.all() for s in self.solids)
 
     def before_iteration(self, it: int) -> bool:
-        """Re-cut while the bodies moved more than eps_geom since the last cut (§5.2) and apply
-        the solution-space update rule (§5.3). Returns True if the dof layout changed."""
-        if self.fluid is None or not self.solids or it == 1 or not self.moving():
+        """Before assembling Newton iteration ``it``: for steady flow, lag the frozen
+        stabilisation velocity; re-cut while the bodies moved more than eps_geom since the last
+        cut (§5.2) and apply the solution-space update rule (§5.3). Returns True if the dof
+        layout changed."""
+        f = self.fluid
+        if f is not None and self.ctx.static:
+            self.stab_change = float(np.linalg.norm(f.V - f.Vbar) / max(np.linalg.norm(f.V), 1e-300))
+            if it > 1:
+                f.Vbar = f.V.copy()
+        if f is None or not self.solids or it == 1 or not self.moving():
             return False
         st = self.fluid.spec.interface
         moved = max(float(np.max(np.abs(s.U - u0), initial=0.0)) for s, u0 in zip(self.solids, self._u_at_cut))
-        if moved <= st.eps_geom:
+        g = self.fluid.grid
+        if moved <= st.eps_geom * min(float(np.diff(g.xs).min()), float(np.diff(g.ys).min())):
             return False
         grow_only = it > st.grow_only_after or self.layout_changes >= st.max_layout_changes
         keep = self._step_active if grow_only else None
@@ -225,11 +238,18 @@ class System:
             self.update_cut()
             self.layout_changes = 0
             self._step_active = self.fluid.active.copy()
+        self.stab_change = 0.0
         if self.fluid is not None:
             self.fluid.begin_step(ctx)
         for term in self.extra_terms:
             term.begin_step(self, ctx)
         self.ctx = ctx
+
+    def finish_step(self, ctx: StepContext) -> None:
+        """After convergence: derived quantities (solid velocities); the old time level is kept
+        so that quantities evaluated now see the complete residual of the step."""
+        for s in self.solids:
+            s.finish_step(ctx)
 
     def end_step(self, ctx: StepContext) -> None:
         for s in self.solids:
@@ -289,7 +309,8 @@ def snapshot(system: System) -> dict[str, np.ndarray]:
 
 
 def restore(system: System, state: dict[str, np.ndarray]) -> None:
-    """Inverse of :func:`snapshot`; rebuilds the layout if the ACTIVE set differs."""
+    """Inverse of :func:`snapshot`; rebuilds the layout if the ACTIVE set differs. The cut is
+    recomputed by the next ``begin_step`` (callers that need it before call ``update_cut``)."""
     for s in system.solids:
         for k in ("U", "V", "Un", "Vn"):
             setattr(s, k, state[f"solid{s.index}.{k}"].copy())
@@ -298,8 +319,6 @@ def restore(system: System, state: dict[str, np.ndarray]) -> None:
         old_active = f.active.copy()
         for k in ("V", "P", "Vn", "Pn", "Vbar", "active"):
             setattr(f, k, state[f"fluid.{k}"].copy())
-        if system.solids:
-            system.update_cut()
         if not np.array_equal(old_active, f.active):
             system.build_layout()
     for i, term in enumerate(system.extra_terms):

@@ -83,3 +83,50 @@ def csm3() -> dict[str, Any]:
         ],
         "output": {"every": 20},
     }
+
+
+def fsi1() -> dict[str, Any]:
+    """Turek-Hron FSI1 (steady, Re = 20): cylinder and elastic bar both embedded in the
+    background grid. Grid: ``m`` cells across the bar thickness (h = 0.02/m) in the band
+    [0.14, 0.66] × [0.14, 0.26] around cylinder and bar, graded outside. The bar mesh has
+    ``nx × ny`` cells. Steady state reached by ramping the inflow over three static steps."""
+    from fsci.cases.dfg import cylinder_body
+
+    bar = bar_body()
+    cyl = cylinder_body(h="=0.01/m", h_max=0.01)
+    return {
+        "name": "turek-hron-fsi1",
+        "kind": "fsi",
+        "description": "Turek-Hron FSI1: elastic bar behind a cylinder in channel flow, steady, both embedded (CutFEM)",
+        "parameters": {"m": 5, "nx": 140, "ny": 8, "U": 0.2, "H": 0.41},
+        "bodies": [cyl, bar],
+        "fluid": {
+            "rho": 1000.0,
+            "mu": 1.0,
+            "viscous_form": "laplace",
+            "grid": {
+                "x": {"breaks": [0.0, 0.14, 0.66, 1.0, 2.5], "cells": ["=m+2", "=26*m", "=2*m", "=3*m"],
+                      "ratios": [0.2, 1.0, 10.0, 3.0]},
+                "y": {"breaks": [0.0, 0.14, 0.26, 0.41], "cells": ["=m+2", "=6*m", "=m+2"],
+                      "ratios": [0.2, 1.0, 5.0]},
+            },
+            "dirichlet": [
+                {"boundary": "left", "value": ["6*U*y*(H-y)/H**2", 0.0], "function": {"type": "ramp", "t0": 0.0, "t1": 1.0}},
+                {"boundary": "bottom", "value": [0.0, 0.0]},
+                {"boundary": "top", "value": [0.0, 0.0]},
+            ],
+        },
+        "time": {"type": "static", "t_end": 1.0, "dt": 0.5},
+        "solver": {"tol_residual": 1e-8, "tol_increment": 1e-10, "max_iterations": 40},
+        "quantities": _tip_quantities() + [
+            {"name": "drag", "type": "body_force", "body": ["cylinder", "bar"], "component": 0},
+            {"name": "lift", "type": "body_force", "body": ["cylinder", "bar"], "component": 1},
+        ],
+        "reference": [
+            {"name": "ux_A", "value": 2.270493e-5, "rtol": 0.02, "source": "FeatFlow FSI1 level 7+0"},
+            {"name": "uy_A", "value": 8.208773e-4, "rtol": 0.02, "source": "FeatFlow FSI1 level 7+0"},
+            {"name": "drag", "value": 14.29426, "rtol": 0.02, "source": "FeatFlow FSI1 level 7+0"},
+            {"name": "lift", "value": 0.7637460, "rtol": 0.02, "source": "FeatFlow FSI1 level 7+0"},
+        ],
+        "output": {"every": 0},
+    }

@@ -356,6 +356,40 @@ class CutState:
         self.ghost = (st[self.faces[:, 0]] != FLUID) | (st[self.faces[:, 1]] != FLUID)
 
     # ----------------------------------------------------------------- queries
+    def boundary_pieces(self, side: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """PHYSICAL parts of the box side's grid edges: edge index (into ``grid.side_edges``)
+        and local range ``[s0, s1]`` (0 at the edge's first node). Uncut edges give [0, 1]."""
+        cache = self.__dict__.setdefault("_boundary_pieces", {})
+        if side in cache:
+            return cache[side]
+        g = self.grid
+        X = g.nodes
+        edges = g.side_edges(side)
+        d = 0 if side in ("bottom", "top") else 1  # coordinate that varies along the side
+        coords = X[edges[:, 0], d]
+        a, b = X[edges[0, 0]], X[edges[-1, 1]]
+        piece_e, piece_s0, piece_s1 = [], [], []
+        if not self.fluid.is_empty:
+            inter = shapely.intersection(shapely.LineString([a, b]), self.fluid)
+            for part in shapely.get_parts(inter):
+                if part.geom_type != "LineString" or part.length <= 0.0:
+                    continue
+                c = np.asarray(part.coords)[:, d]
+                lo, hi = float(c.min()), float(c.max())
+                k0 = max(int(np.searchsorted(coords, lo, side="right")) - 1, 0)
+                k1 = min(int(np.searchsorted(coords, hi, side="left")), len(edges))
+                for k in range(k0, k1):
+                    e0, e1 = X[edges[k, 0], d], X[edges[k, 1], d]
+                    s0 = max(0.0, (lo - e0) / (e1 - e0))
+                    s1 = min(1.0, (hi - e0) / (e1 - e0))
+                    if s1 - s0 > 1e-14:
+                        piece_e.append(k)
+                        piece_s0.append(s0)
+                        piece_s1.append(s1)
+        out = (np.asarray(piece_e, dtype=np.int64), np.asarray(piece_s0, float), np.asarray(piece_s1, float))
+        cache[side] = out
+        return out
+
     @property
     def cut_cells(self) -> np.ndarray:
         return np.nonzero(self.state == CUT)[0]

@@ -27,10 +27,11 @@ def fluid_bulk_residual(system) -> np.ndarray:
     return out
 
 
-def volume_force(system, body: int) -> np.ndarray:
-    """Force of the fluid on ``body`` by the volume form."""
+def volume_force(system, bodies: list[int]) -> np.ndarray:
+    """Force of the fluid on a set of bodies by the volume form (w = 1 on the nodes of every
+    cell containing one of their wetted pieces: no double counting where bodies meet)."""
     seg = system.cut.segments
-    cells = seg.cell[(seg.body == body) & seg.fs]
+    cells = seg.cell[np.isin(seg.body, bodies) & seg.fs]
     if len(cells) == 0:
         return np.zeros(2)
     nodes = np.unique(system.fluid.grid.cells[cells])
@@ -38,11 +39,11 @@ def volume_force(system, body: int) -> np.ndarray:
     return -R[nodes, :2].sum(axis=0)
 
 
-def traction_force(system, body: int) -> np.ndarray:
-    """Force of the fluid on ``body``: ∫ σ_Γ over its wetted interface (last assembly)."""
+def traction_force(system, bodies: list[int]) -> np.ndarray:
+    """Force of the fluid on a set of bodies: ∫ σ_Γ over their wetted interface (last assembly)."""
     for term in system.extra_terms:
         if hasattr(term, "forces"):
-            return term.forces(system)[body]
+            return term.forces(system)[bodies].sum(axis=0)
     return np.zeros(2)
 
 

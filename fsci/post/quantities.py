@@ -80,13 +80,15 @@ class QuantityEvaluator:
         elif q.kind == "body_force":
             names = [b.name for b in s.solids]
             body = q.params.get("body")
-            if body not in names or s.fluid is None:
-                raise InputError(self._field(q, "body"), body, "a body immersed in the fluid (" + ", ".join(names) + ")")
+            bodies = body if isinstance(body, list) else [body]
+            if s.fluid is None or not bodies or any(b not in names for b in bodies):
+                raise InputError(self._field(q, "body"), body, "a body (or list of bodies) immersed in the fluid ("
+                                 + ", ".join(names) + ")")
             if q.params.get("component", 0) not in (0, 1):
                 raise InputError(self._field(q, "component"), q.params.get("component"), "0 (x) or 1 (y)")
             if q.params.get("method", "volume") not in ("volume", "traction"):
                 raise InputError(self._field(q, "method"), q.params.get("method"), "volume or traction")
-            self._prepared[q.name] = names.index(body)
+            self._prepared[q.name] = [names.index(b) for b in bodies]
         elif q.kind == "mass_balance":
             if s.fluid is None or not s.solids:
                 raise InputError(self._field(q, "type"), q.kind, "needs a fluid and bodies")
@@ -123,7 +125,11 @@ class QuantityEvaluator:
     # ----------------------------------------------------------------- final
     def final_values(self, history: list[dict[str, float]], out_dir: Path | None) -> dict[str, float]:
         """Values reported in results.json (last history row plus end-of-run quantities)."""
-        out: dict[str, float] = dict(self.step_values())
+        if history:
+            out: dict[str, float] = {k: v for k, v in history[-1].items()
+                                     if k not in ("time", "step", "dt", "newton_iterations")}
+        else:
+            out = dict(self.step_values())
         for q in self.problem.quantities:
             if q.kind == "oscillation":
                 series = np.array([[h["time"], h[q.params["of"]]] for h in history if q.params["of"] in h])
@@ -158,15 +164,19 @@ def mass_balance(system, prefix: str) -> dict[str, float]:
 
 
 def flow_rate(fluid, side: str) -> float:
-    """∫ v·n dΓ over one side of the box (outward normal), paper (44)."""
+    """∫ v·n dΓ over the PHYSICAL part of one side of the box (outward normal), paper (44)."""
     g = fluid.grid
     edges = g.side_edges(side)
     n = g.side_normal(side)
     X = g.nodes
-    length = np.linalg.norm(X[edges[:, 1]] - X[edges[:, 0]], axis=1)
+    k, s0, s1 = fluid.cut.boundary_pieces(side)
+    if len(k) == 0:
+        return 0.0
+    e = edges[k]
+    length = np.linalg.norm(X[e[:, 1]] - X[e[:, 0]], axis=1) * (s1 - s0)
     vn = fluid.V[:, 0] * n[0] + fluid.V[:, 1] * n[1]
-    ok = fluid.active[edges[:, 0]] & fluid.active[edges[:, 1]]
-    return float(np.sum((0.5 * length * (vn[edges[:, 0]] + vn[edges[:, 1]]))[ok]))
+    sm = 0.5 * (s0 + s1)  # v·n is linear along an edge: the midpoint rule is exact
+    return float(np.sum(length * ((1.0 - sm) * vn[e[:, 0]] + sm * vn[e[:, 1]])))
 
 
 def oscillation(t: np.ndarray, y: np.ndarray) -> dict[str, float]:

@@ -2,8 +2,11 @@
 
 * :class:`PardisoSolver` (MKL PARDISO through ``pypardiso``): the symbolic analysis (phase 11,
   about as expensive as the numeric factorisation) is reused while the sparsity pattern is
-  unchanged; only phase 22 (numeric) and 33 (solve) run. The true residual of every solve is
-  checked; if the reused analysis gave an inaccurate solution the analysis is redone.
+  unchanged; only phase 22 (numeric) and 33 (solve) run. The analysis depends on the pattern
+  only (METIS ordering; value-dependent scaling and matching are off), so reusing it or
+  redoing it gives the same factors — a restarted run is bit-identical to an uninterrupted one
+  (with ``MKL_CBWR=AUTO``, set by ``fsci/__init__.py``). The true residual of every solve is
+  checked; an inaccurate solve is repeated once with scaling and matching (robust mode).
 * :class:`SuperLUSolver` (scipy): ``permc_spec="MMD_AT_PLUS_A"``, ``SymmetricMode`` and
   ``diag_pivot_thresh=0.01`` — the three options go together (see ../shared/DESIGN.md).
 
@@ -13,6 +16,8 @@ implement too.
 
 from __future__ import annotations
 
+import ctypes
+import os
 import time
 
 import numpy as np
@@ -67,8 +72,28 @@ class PardisoSolver(LinearSolver):
 
         self._ps = pypardiso.PyPardisoSolver(mtype=11)
         self._key: bytes | None = None
+        self._robust = False
+        self._set_mode(robust=False)
+
+    def _set_mode(self, robust: bool) -> None:
+        ip = self._ps.iparm
+        ip[:] = 0
+        ip[0] = 1  # use the values below
+        ip[1] = 2  # METIS nested dissection
+        ip[7] = 2  # iterative refinement steps
+        ip[9] = 13  # pivot perturbation 1e-13
+        ip[10] = 1 if robust else 0  # scaling (value dependent)
+        ip[12] = 1 if robust else 0  # weighted matching (value dependent)
+        self._robust = robust
+
+    SMALL = 20000  # below this many unknowns one thread is faster (thread start-up dominates)
 
     def _phase(self, A: sp.csr_matrix, b: np.ndarray, phase: int) -> np.ndarray:
+        threads = 1 if A.shape[0] < self.SMALL else (os.cpu_count() or 1)
+        try:
+            self._ps.libmkl.MKL_Set_Num_Threads(ctypes.c_int(threads))
+        except AttributeError:
+            pass
         self._ps.set_phase(phase)
         return self._ps._call_pardiso(A, b)
 
@@ -80,6 +105,11 @@ class PardisoSolver(LinearSolver):
             A.sort_indices()
         b2 = np.asfortranarray(b.reshape(-1, 1))
         for attempt in range(2):
+            if attempt == 1:
+                self._set_mode(robust=True)
+            elif self._robust:
+                self._set_mode(robust=False)
+                self._key = None
             try:
                 if pattern_key is None or pattern_key != self._key or attempt == 1:
                     t0 = time.perf_counter()
@@ -100,8 +130,10 @@ class PardisoSolver(LinearSolver):
             r = A @ x - b
             bn = np.linalg.norm(b)
             if np.all(np.isfinite(x)) and np.linalg.norm(r) <= 1e-8 * max(bn, 1e-300):
+                if self._robust:
+                    self._key = None  # the next solve starts again from a pattern-only analysis
                 return x
-            self._key = None  # reused analysis no longer fits the values: redo it
+            self._key = None
         if not np.all(np.isfinite(x)):
             raise SolverError("PARDISO returned non-finite values (singular matrix)")
         return x

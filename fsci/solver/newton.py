@@ -34,6 +34,7 @@ class NewtonReport:
     residuals: list[float] = field(default_factory=list)
     field_residuals: list[dict[str, float]] = field(default_factory=list)
     reason: str = ""
+    restarts: int = 0
 
 
 def _norms(vec: np.ndarray, dofs: dict[str, np.ndarray], kind: str) -> dict[str, float]:
@@ -60,7 +61,14 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
     for it in range(1, settings.max_iterations + 2):
         layout_changed = system.before_iteration(it) if hasattr(system, "before_iteration") else False
         if layout_changed:
+            # the ACTIVE set changed: state transferred, Newton restarted (damping and residual
+            # history reset, as 4C's outer loop); the iteration count goes on
             x = system.gather()
+            lam = 1.0
+            totals = []
+            r0 = None
+            inc_norms = None
+            report.restarts += 1
         asm = system.assemble(ctx, want_matrix=True)
         R = asm.rhs
         if not np.all(np.isfinite(R)):
@@ -78,7 +86,8 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
         inc_ok = inc_norms is not None and all(v <= settings.tol_increment for v in inc_norms.values())
         tiny = all(norms[f] <= 1e-3 * settings.tol_residual for f in norms)
         solves = it - 1
-        if res_ok and (inc_ok or tiny) and solves >= settings.min_iterations and not layout_changed:
+        extra_ok = system.converged_extra(settings) if hasattr(system, "converged_extra") else True
+        if res_ok and (inc_ok or tiny) and solves >= settings.min_iterations and not layout_changed and extra_ok:
             report.converged = True
             report.iterations = solves
             return report
