@@ -91,7 +91,9 @@ class Simulation:
         dt_nom, seg_end = self.nominal_dt(self.t)
         dt = dt_nom if self.dt_current is None else min(dt_nom, self.dt_current)
         remaining = seg_end - self.t
-        if dt >= remaining * (1 - 1e-9) or remaining - dt < 1e-6 * dt_nom:
+        if abs(remaining - dt) <= 1e-9 * dt:
+            return dt  # lands on the segment end up to round-off: keep the scheduled step exactly
+        if dt > remaining or remaining - dt < 1e-6 * dt_nom:
             dt = remaining
         return dt
 
