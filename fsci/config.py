@@ -27,14 +27,14 @@ from fsci.mesh.grid import SIDES, Grid
 from fsci.mesh.quadmesh import QuadMesh
 from fsci.physics.materials import LAW_NAMES
 from fsci.problem import (
-    Body, Dirichlet, Fluid, InterfaceSettings, Material, Neumann, Output, Problem, Quantity, Reference,
+    Body, ContactSettings, Dirichlet, Fluid, InterfaceSettings, Material, Neumann, Output, Problem, Quantity, Reference,
     SolverSettings, Stabilization, TimeGrid,
 )
 from fsci.timefunc import make_time_function
 
 QUANTITY_KINDS = (
     "point_displacement", "body_force", "pressure_difference", "flow_rate", "oscillation",
-    "centerline_profiles", "vortex_center", "mass_balance", "body_force",
+    "centerline_profiles", "vortex_center", "mass_balance", "body_force", "contact_profile", "hertz_exact",
 )
 
 
@@ -57,7 +57,7 @@ class Table:
 
     def raw(self, k: str, default: Any = None) -> Any:
         self.used.add(k)
-        return evaluate_parameter(self.data.get(k, default), self.params, self.key(k))
+        return _evaluate_nested(self.data.get(k, default), self.params, self.key(k))
 
     def num(self, k: str, default: float | None = None, *, lo: float | None = None, hi: float | None = None,
             lo_open: bool = False, hi_open: bool = False, allowed: str | None = None) -> float:
@@ -130,6 +130,15 @@ class Table:
         if extra:
             raise InputError(self.key(extra[0]), self.data[extra[0]],
                              "unknown key (allowed here: " + ", ".join(sorted(self.used)) + ")")
+
+
+def _evaluate_nested(value: Any, params: Mapping[str, float], field: str) -> Any:
+    """Evaluate ``"=expr"`` strings anywhere inside lists and inline tables."""
+    if isinstance(value, list):
+        return [_evaluate_nested(v, params, f"{field}[{i}]") for i, v in enumerate(value)]
+    if isinstance(value, Mapping) and not isinstance(value, Table):
+        return {k: _evaluate_nested(v, params, f"{field}.{k}") for k, v in value.items()}
+    return evaluate_parameter(value, params, field)
 
 
 # --------------------------------------------------------------------------- overrides
@@ -290,7 +299,10 @@ def read_mesh(t: Table, base_dir: Path | None) -> QuadMesh:
         if not isinstance(loops, list) or not loops:
             raise InputError(t.key("loops"), loops, "a list of closed loops of line/arc pieces")
         hmax = t.num("h_max", 0.0, lo=0) if t.has("h_max") else None
-        m = mesh_outline(loops, t.num("h", lo=0, lo_open=True), h_max=hmax)
+        refine = t.raw("refine", [])
+        if not isinstance(refine, list):
+            raise InputError(t.key("refine"), refine, "a list of {point, h, radius} tables")
+        m = mesh_outline(loops, t.num("h", lo=0, lo_open=True), h_max=hmax, refine=refine)
     elif kind == "disk":
         c = t.vec("center")
         r = t.num("radius", lo=0, lo_open=True)
@@ -514,9 +526,20 @@ def problem_from_dict(case: Mapping[str, Any], base_dir: Path | None = None) -> 
     for r in top.tables("reference"):
         refs.append(Reference(r.str("name"), r.num("value"), r.num("rtol", 0.01, lo=0), r.str("source", "")))
         r.done()
+    c = top.table("contact")
+    contact = ContactSettings(
+        gamma0=c.num("gamma0", 1.0, lo=0, lo_open=True),
+        weighting=c.str("weighting", "harmonic", choices=("harmonic", "half")),
+        search_radius=c.num("search_radius", 0.0, lo=0),
+        n_gauss=c.int("n_gauss", 3, lo=1),
+        split=c.bool("split", True),
+        n_fixed=c.int("n_fixed", 10, lo=1),
+        self_contact=c.bool("self_contact", False),
+    )
+    c.done()
     o = top.table("output")
     output = Output(every=o.int("every", 1, lo=0), figures=o.bool("figures", True), fields=o.bool("fields", True),
                     checkpoint_every=o.int("checkpoint_every", 0, lo=0))
     o.done()
     top.done()
-    return Problem(name, description, bodies, fluid, time, solver, quantities, refs, output, case)
+    return Problem(name, description, bodies, fluid, time, solver, quantities, refs, output, case, contact)

@@ -113,6 +113,19 @@ class Fluid:
 
 
 @dataclass
+class ContactSettings:
+    """Nitsche contact parameters (paper: γ0^S = 1; 4C: harmonic weights)."""
+
+    gamma0: float = 1.0
+    weighting: str = "harmonic"  # or "half"
+    search_radius: float = 0.0  # 0: twice the longest contact edge
+    n_gauss: int = 3  # Gauss points per integration piece
+    split: bool = True  # split pieces at projected opposite nodes (Remark 9); else n_fixed sub-intervals
+    n_fixed: int = 10
+    self_contact: bool = False
+
+
+@dataclass
 class TimeGrid:
     """Time discretisation: ``kind`` "static" (no inertia, steady flow) or "transient"."""
 
@@ -187,3 +200,4 @@ class Problem:
     references: list[Reference]
     output: Output
     source: dict[str, Any]  # the (overridden) case dictionary it was read from
+    contact: ContactSettings = field(default_factory=ContactSettings)

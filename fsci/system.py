@@ -44,6 +44,10 @@ class System:
                 raise InputError("bodies", "initial geometry", str(exc)) from None
             if self.solids:
                 self.extra_terms.append(NitscheInterface(self))
+        if sum(1 for b in problem.bodies if b.contact) >= 1 and len(problem.bodies) >= 2 or problem.contact.self_contact:
+            from fsci.contact import NitscheContact
+
+            self.extra_terms.append(NitscheContact(self, problem.contact))
         self.build_layout()
 
     # ----------------------------------------------------------------- geometry

@@ -67,6 +67,8 @@ def _grid_mesh(x: np.ndarray, y: np.ndarray) -> QuadMesh:
     }
     edge_sets["all"] = np.vstack([edge_sets[k] for k in ("bottom", "right", "top", "left")])
     node_sets["all"] = np.unique(edge_sets["all"])
+    node_sets.update({"bottom_left": np.array([nid(0, 0)]), "bottom_right": np.array([nid(nx, 0)]),
+                      "top_right": np.array([nid(nx, ny)]), "top_left": np.array([nid(0, ny)])})
     return QuadMesh(nodes, cells, node_sets, edge_sets)
 
 

@@ -53,7 +53,7 @@ def _compact(nodes: np.ndarray, cells: np.ndarray, edge_sets: dict[str, np.ndarr
 
 
 def mesh_outline(loops: Sequence[Sequence[Mapping[str, Any]]], h: float, *, h_max: float | None = None,
-                 algorithm: int = 8) -> QuadMesh:
+                 refine: Sequence[Mapping[str, Any]] = (), algorithm: int = 8) -> QuadMesh:
     """Mesh a 2D region bounded by closed loops of lines and arcs with quads.
 
     Parameters
@@ -69,6 +69,9 @@ def mesh_outline(loops: Sequence[Sequence[Mapping[str, Any]]], h: float, *, h_ma
     h_max
         Optional larger size in the interior (the size grows linearly with the distance from
         the outline); useful for rigid bodies whose interior does not matter.
+    refine
+        Local refinement: ``{"point": [x, y], "h": size, "radius": r}`` — size ``h`` within
+        ``r`` of the point, growing linearly to the global size at ``4 r``.
     algorithm
         gmsh 2D algorithm (8 = Frontal-Delaunay for quads).
 
@@ -133,18 +136,41 @@ def mesh_outline(loops: Sequence[Sequence[Mapping[str, Any]]], h: float, *, h_ma
         # subdivision halves the size; compensate so the final size is about h
         gmsh.option.setNumber("Mesh.MeshSizeMin", 2 * h)
         gmsh.option.setNumber("Mesh.MeshSizeMax", 2 * (h if h_max is None else max(h, h_max)))
-        if h_max is not None and h_max > h:
-            fields = gmsh.model.mesh.field
+        fields = gmsh.model.mesh.field
+        size_fields = []
+        for k, ref in enumerate(refine):
+            field = f"refine[{k}]"
+            p = np.asarray(ref.get("point"), float)
+            hr, rr = float(ref.get("h", 0.0)), float(ref.get("radius", 0.0))
+            if p.shape != (2,) or not (hr > 0 and rr > 0):
+                raise InputError(field, dict(ref), "{point = [x, y], h > 0, radius > 0}")
+            pt = gmsh.model.geo.addPoint(p[0], p[1], 0.0, hr)
+            gmsh.model.geo.synchronize()
             dist = fields.add("Distance")
-            fields.setNumbers(dist, "CurvesList", [c for tags in names.values() for c in tags] or
-                              [c[1] for c in gmsh.model.getEntities(1)])
+            fields.setNumbers(dist, "PointsList", [pt])
+            thr = fields.add("Threshold")
+            fields.setNumber(thr, "InField", dist)
+            fields.setNumber(thr, "SizeMin", 2 * hr)
+            fields.setNumber(thr, "SizeMax", 2 * h)
+            fields.setNumber(thr, "DistMin", rr)
+            fields.setNumber(thr, "DistMax", 4 * rr)
+            size_fields.append(thr)
+        if size_fields:
+            gmsh.option.setNumber("Mesh.MeshSizeMin", 2 * min(float(r["h"]) for r in refine))
+        if h_max is not None and h_max > h:
+            dist = fields.add("Distance")
+            fields.setNumbers(dist, "CurvesList", [c[1] for c in gmsh.model.getEntities(1)])
             thr = fields.add("Threshold")
             fields.setNumber(thr, "InField", dist)
             fields.setNumber(thr, "SizeMin", 2 * h)
             fields.setNumber(thr, "SizeMax", 2 * h_max)
             fields.setNumber(thr, "DistMin", 0.0)
             fields.setNumber(thr, "DistMax", 4 * h_max)
-            fields.setAsBackgroundMesh(thr)
+            size_fields.append(thr)
+        if size_fields:
+            fmin = fields.add("Min")
+            fields.setNumbers(fmin, "FieldsList", size_fields)
+            fields.setAsBackgroundMesh(fmin)
             gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
             gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
         gmsh.model.mesh.generate(2)

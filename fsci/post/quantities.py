@@ -89,6 +89,20 @@ class QuantityEvaluator:
             if q.params.get("method", "volume") not in ("volume", "traction"):
                 raise InputError(self._field(q, "method"), q.params.get("method"), "volume or traction")
             self._prepared[q.name] = [names.index(b) for b in bodies]
+        elif q.kind in ("contact_profile", "hertz_exact"):
+            if q.kind == "contact_profile":
+                names = [b.name for b in s.solids if b.body.contact]
+                if q.params.get("body") not in names:
+                    raise InputError(self._field(q, "body"), q.params.get("body"), "a body with contact surfaces ("
+                                     + ", ".join(names) + ")")
+            else:
+                for key in ("R", "E", "nu"):
+                    v = q.params.get(key)
+                    if isinstance(v, bool) or not isinstance(v, (int, float)) or v <= 0 and key != "nu":
+                        raise InputError(self._field(q, key), v, "a positive number")
+                P = q.params.get("P")
+                if not (isinstance(P, str) or (isinstance(P, (int, float)) and not isinstance(P, bool) and P > 0)):
+                    raise InputError(self._field(q, "P"), P, "a positive load or the name of a computed force")
         elif q.kind == "mass_balance":
             if s.fluid is None or not s.solids:
                 raise InputError(self._field(q, "type"), q.kind, "needs a fluid and bodies")
@@ -120,6 +134,14 @@ class QuantityEvaluator:
                 out[q.name] = float(F[q.params.get("component", 0)] * q.params.get("scale", 1.0))
             elif q.kind == "mass_balance":
                 out.update(mass_balance(s, q.name))
+            elif q.kind == "contact_profile":
+                out.update(contact_summary(s, q.params["body"], q.params.get("axis", 0.0), q.params.get("prefix", "")))
+            elif q.kind == "hertz_exact":
+                P = q.params["P"]
+                if isinstance(P, str):  # the load from another quantity (displacement control)
+                    P = abs(out[P]) * float(q.params.get("factor", 1.0))
+                out["hertz_load"] = float(P)
+                out.update(hertz_exact(float(P), *(float(q.params[k]) for k in ("R", "E", "nu"))))
         return out
 
     # ----------------------------------------------------------------- final
@@ -138,12 +160,57 @@ class QuantityEvaluator:
                 prof = centerline_profiles(self.system.fluid, q.params)
                 if out_dir is not None:
                     write_profiles(out_dir / "profiles.csv", prof)
+            elif q.kind == "contact_profile" and out_dir is not None:
+                prof = contact_term(self.system).profile(q.params["body"])
+                np.savetxt(out_dir / f"contact_{q.params['body']}.csv", prof, delimiter=",",
+                           header="x,y,pressure,gap,active,weight,n_x,n_y", comments="", fmt="%.12g")
             elif q.kind == "vortex_center":
                 x, y, psi = vortex_center(self.system.fluid)
                 out[f"{q.name}_x"] = x
                 out[f"{q.name}_y"] = y
                 out[f"{q.name}_psi"] = psi
         return out
+
+
+def contact_term(system):
+    for term in system.extra_terms:
+        if hasattr(term, "profile"):
+            return term
+    raise InputError("quantities", "contact_profile", "the problem has no contact")
+
+
+def contact_summary(system, body: str, axis: float, prefix: str) -> dict[str, float]:
+    """Contact zone of ``body`` from the Gauss-point pressures of its own pass: half-width
+    (distance from ``x = axis`` to the middle between the outermost active and the next
+    inactive point), peak pressure, largest penetration, and the resultant contact force on
+    the body (``∫ σ_nn n``)."""
+    prof = contact_term(system).profile(body)
+    out = {f"{prefix}half_width": 0.0, f"{prefix}peak_pressure": 0.0, f"{prefix}penetration": 0.0,
+           f"{prefix}contact_force_x": 0.0, f"{prefix}contact_force_y": 0.0}
+    if len(prof) == 0:
+        return out
+    force = -np.einsum("k,k,kd->d", prof[:, 2], prof[:, 5], prof[:, 6:8])  # pressure = -σ_nn
+    out[f"{prefix}contact_force_x"] = float(force[0])
+    out[f"{prefix}contact_force_y"] = float(force[1])
+    d = np.abs(prof[:, 0] - axis)
+    order = np.argsort(d)
+    d, p, gap, act = d[order], prof[order, 2], prof[order, 3], prof[order, 4] > 0
+    loaded = act & (p > 0)
+    if loaded.any():
+        last = int(np.nonzero(loaded)[0].max())
+        edge = d[last] if last == len(d) - 1 else 0.5 * (d[last] + d[last + 1])
+        out[f"{prefix}half_width"] = float(edge)
+        out[f"{prefix}peak_pressure"] = float(p[loaded].max())
+        out[f"{prefix}penetration"] = float(max(0.0, -gap[loaded].min()))
+    return out
+
+
+def hertz_exact(P: float, R: float, E: float, nu: float) -> dict[str, float]:
+    """Plane-strain Hertz contact of a cylinder on a rigid flat (Johnson 1985):
+    a = sqrt(4 P R / (π E*)), p0 = 2 P / (π a), E* = E / (1 - ν²)."""
+    Es = E / (1.0 - nu * nu)
+    a = np.sqrt(4.0 * P * R / (np.pi * Es))
+    return {"half_width_exact": float(a), "peak_pressure_exact": float(2.0 * P / (np.pi * a))}
 
 
 def mass_balance(system, prefix: str) -> dict[str, float]:

@@ -1,0 +1,205 @@
+"""Contact search (FORMULATION §3, paper (10)): for points on a body's potential-contact
+boundary, the projection along the body's outward normal ``n`` onto the boundary segments of
+other bodies (or of the same body, for self contact).
+
+For a straight edge the normal is constant, so the set of parameters ξ ∈ [0, 1] of an edge
+``e`` whose normal ray hits an opposite segment ``f`` is an interval whose end points are the
+orthogonal projections of ``f``'s end points onto ``e``'s line. The search returns these
+intervals ("pieces"): the contact integrals are split at the projections of the opposite
+element edges (paper Remark 9), each piece seeing one opposite segment.
+
+Rules: the opposite segment must face the edge (``n_e · n_f < -0.1``, 4C's criterion); the gap
+``g_n = (x̌ - x)·n`` at the piece's midpoint must satisfy ``|g_n| <= radius`` (beyond the
+cut-off ``g_n = ∞``); where several opposite segments are hit, the nearest (smallest ``|g_n|``)
+wins.
+
+End-point descriptors: ``-1`` fixed parameter (``s0``/``s1`` as given), ``0``/``1`` the
+projection of the opposite segment's first/second node.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+
+FACING = -0.1
+
+
+@dataclass
+class Surface:
+    """Potential-contact edges of one body in the current configuration."""
+
+    body: int
+    x: np.ndarray  # current node coordinates of the body
+    edges: np.ndarray  # (k, 2) node ids, cell on the left
+    cell: np.ndarray  # parent cell of each edge
+    local: np.ndarray  # local edge index in the parent cell
+
+    def normals(self) -> np.ndarray:
+        d = self.x[self.edges[:, 1]] - self.x[self.edges[:, 0]]
+        return np.column_stack([d[:, 1], -d[:, 0]]) / np.linalg.norm(d, axis=1)[:, None]
+
+
+@dataclass
+class Pieces:
+    """Contact integration pieces on one surface against opposite segments."""
+
+    edge: np.ndarray  # own edge index
+    opp_surface: np.ndarray  # index of the opposite surface
+    opp_edge: np.ndarray  # opposite edge index
+    s0: np.ndarray
+    s1: np.ndarray
+    d0: np.ndarray  # end-point descriptors
+    d1: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.edge)
+
+
+def _project(A, B, P, Q):
+    """Affine maps along own edges A->B: parameters of the projections of P and Q, and the
+    ray-segment coordinates at the own edge's ends. All arrays (k, 2)."""
+    t = B - A
+    L2 = np.einsum("ij,ij->i", t, t)
+    sP = np.einsum("ij,ij->i", P - A, t) / L2
+    sQ = np.einsum("ij,ij->i", Q - A, t) / L2
+    return sP, sQ
+
+
+def _gap(A, B, P, Q, s):
+    """Gap and opposite coordinate η of the ray from A + s (B - A) along the normal of A->B."""
+    t = B - A
+    L = np.linalg.norm(t, axis=1)
+    n = np.column_stack([t[:, 1], -t[:, 0]]) / L[:, None]
+    x = A + s[:, None] * t
+    d = Q - P
+    w = x - P
+    det = -d[:, 0] * n[:, 1] + n[:, 0] * d[:, 1]
+    eta = (-w[:, 0] * n[:, 1] + n[:, 0] * w[:, 1]) / det
+    g = (d[:, 0] * w[:, 1] - d[:, 1] * w[:, 0]) / det
+    return g, eta
+
+
+def find_pieces(surfaces: list[Surface], own: int, radius: float, self_contact: bool = False,
+                split: bool = True, n_fixed: int = 10) -> Pieces:
+    """Contact pieces of surface ``own`` against all other surfaces (and itself if
+    ``self_contact``). With ``split=False`` every edge is divided into ``n_fixed`` equal
+    sub-intervals with fixed ends, each assigned the opposite segment hit by its midpoint."""
+    so = surfaces[own]
+    A = so.x[so.edges[:, 0]]
+    B = so.x[so.edges[:, 1]]
+    n_own = so.normals()
+    rows = []
+    for k, sf in enumerate(surfaces):
+        if k == own and not self_contact:
+            continue
+        P = sf.x[sf.edges[:, 0]]
+        Q = sf.x[sf.edges[:, 1]]
+        tree = shapely.STRtree(shapely.linestrings(np.stack([P, Q], axis=1)))
+        lo = np.minimum(A, B) - radius
+        hi = np.maximum(A, B) + radius
+        ie, jf = tree.query(shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1]))
+        if len(ie) == 0:
+            continue
+        n_opp = sf.normals()
+        face = np.einsum("ij,ij->i", n_own[ie], n_opp[jf]) < FACING
+        if k == own:  # self contact: not the edge itself nor its neighbours
+            shared = np.array([len(set(so.edges[a]) & set(sf.edges[b])) > 0 for a, b in zip(ie, jf)], dtype=bool)
+            face &= ~shared
+        ie, jf = ie[face], jf[face]
+        if split:
+            sP, sQ = _project(A[ie], B[ie], P[jf], Q[jf])
+            # interval of own parameters whose ray hits the segment: between the projections
+            lo_s = np.minimum(sP, sQ)
+            hi_s = np.maximum(sP, sQ)
+            d_lo = np.where(sP <= sQ, 0, 1)
+            d_hi = 1 - d_lo
+            s0 = np.maximum(lo_s, 0.0)
+            s1 = np.minimum(hi_s, 1.0)
+            d0 = np.where(lo_s > 0.0, d_lo, -1)
+            d1 = np.where(hi_s < 1.0, d_hi, -1)
+            ok = s1 - s0 > 1e-12
+            rows.append((ie[ok], np.full(ok.sum(), k), jf[ok], s0[ok], s1[ok], d0[ok], d1[ok]))
+        else:
+            for m in range(n_fixed):
+                s = np.full(len(ie), (m + 0.5) / n_fixed)
+                g, eta = _gap(A[ie], B[ie], P[jf], Q[jf], s)
+                ok = (eta >= 0.0) & (eta <= 1.0)
+                rows.append((ie[ok], np.full(ok.sum(), k), jf[ok], np.full(ok.sum(), m / n_fixed),
+                             np.full(ok.sum(), (m + 1) / n_fixed), np.full(ok.sum(), -1), np.full(ok.sum(), -1)))
+    if not rows:
+        z = np.zeros(0, dtype=np.int64)
+        return Pieces(z, z, z, np.zeros(0), np.zeros(0), z, z)
+    e, osf, f, s0, s1, d0, d1 = (np.concatenate([r[i] for r in rows]) for i in range(7))
+    pieces = _resolve_overlaps(surfaces, own, e, osf, f, s0, s1, d0, d1, radius, split)
+    return pieces
+
+
+def _resolve_overlaps(surfaces, own, e, osf, f, s0, s1, d0, d1, radius, split) -> Pieces:
+    """Keep, for every part of every own edge, the nearest opposite segment within the
+    cut-off; where candidates overlap the edge is split at all candidate end points."""
+    so = surfaces[own]
+    out = []
+    order = np.lexsort((s0, e))
+    e, osf, f, s0, s1, d0, d1 = e[order], osf[order], f[order], s0[order], s1[order], d0[order], d1[order]
+    starts = np.concatenate([[0], np.nonzero(np.diff(e))[0] + 1, [len(e)]])
+    for a, b in zip(starts[:-1], starts[1:]):
+        if b <= a:
+            continue
+        edge = e[a]
+        A = so.x[so.edges[edge, 0]][None]
+        B = so.x[so.edges[edge, 1]][None]
+        cuts = np.unique(np.concatenate([s0[a:b], s1[a:b]]))
+        for lo, hi in zip(cuts[:-1], cuts[1:]):
+            if hi - lo <= 1e-12:
+                continue
+            mid = 0.5 * (lo + hi)
+            cand = [c for c in range(a, b) if s0[c] <= mid <= s1[c]]
+            best, best_g = None, np.inf
+            for c in cand:
+                sf = surfaces[osf[c]]
+                P = sf.x[sf.edges[f[c], 0]][None]
+                Q = sf.x[sf.edges[f[c], 1]][None]
+                g, _ = _gap(A, B, P, Q, np.array([mid]))
+                if abs(g[0]) <= radius and abs(g[0]) < best_g:
+                    best, best_g = c, abs(g[0])
+            if best is None:
+                continue
+            # keep symbolic end points only where they are the candidate's own interval ends
+            dl = d0[best] if abs(lo - s0[best]) <= 1e-14 else -1
+            dh = d1[best] if abs(hi - s1[best]) <= 1e-14 else -1
+            out.append((edge, osf[best], f[best], lo, hi, dl, dh))
+    if not out:
+        z = np.zeros(0, dtype=np.int64)
+        return Pieces(z, z, z, np.zeros(0), np.zeros(0), z, z)
+    arr = list(zip(*out))
+    return Pieces(np.array(arr[0], np.int64), np.array(arr[1], np.int64), np.array(arr[2], np.int64),
+                  np.array(arr[3], float), np.array(arr[4], float), np.array(arr[5], np.int64), np.array(arr[6], np.int64))
+
+
+def gaps_at(surfaces: list[Surface], own: int, points: np.ndarray, normals: np.ndarray, radius: float) -> np.ndarray:
+    """Gap g_n of given points with normals against the other surfaces (∞ without a facing
+    segment within the cut-off); used by the slip-length law (40)."""
+    g_best = np.full(len(points), np.inf)
+    for k, sf in enumerate(surfaces):
+        if k == own:
+            continue
+        P = sf.x[sf.edges[:, 0]]
+        Q = sf.x[sf.edges[:, 1]]
+        n_opp = sf.normals()
+        tree = shapely.STRtree(shapely.linestrings(np.stack([P, Q], axis=1)))
+        rays = shapely.linestrings(np.stack([points - radius * normals, points + radius * normals], axis=1))
+        ip, jf = tree.query(rays, predicate="intersects")
+        if len(ip) == 0:
+            continue
+        face = np.einsum("ij,ij->i", normals[ip], n_opp[jf]) < FACING
+        ip, jf = ip[face], jf[face]
+        d = Q[jf] - P[jf]
+        w = points[ip] - P[jf]
+        n = normals[ip]
+        det = -d[:, 0] * n[:, 1] + n[:, 0] * d[:, 1]
+        g = (d[:, 0] * w[:, 1] - d[:, 1] * w[:, 0]) / det
+        np.minimum.at(g_best, ip, np.where(np.abs(g) <= radius, g, np.inf))
+    return g_best

@@ -1,0 +1,148 @@
+"""Dry Nitsche contact: patch test (matching and non-matching meshes), Hertz, unbiasedness and
+Newton rate on two blocks, Jacobian vs finite differences, penalty sweep."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+from fsci.cases import get_case
+from fsci.config import apply_override, problem_from_dict
+from fsci.fields import StepContext
+from fsci.simulation import Simulation
+from fsci.system import System
+
+from helpers import jacobian_fd_error
+
+UPPER_X = {"matching": {"start": 0.0, "end": 2.0, "cells": 5},
+           "non-matching": [0.0, 0.31, 0.7, 1.13, 1.52, 2.0]}  # ratio ≈ 1.3 with an offset
+
+
+def patch_case(mesh="non-matching", law="neo_hooke", split=True, weighting="harmonic", E_up=1.0):
+    def block(name, y0, y1, xs, ny, E, extra):
+        b = {"name": name, "material": {"law": law, "E": E, "nu": 0.3},
+             "mesh": {"type": "rectilinear", "x": xs, "y": {"start": y0, "end": y1, "cells": ny}}}
+        b.update(extra)
+        return b
+
+    low = block("lower", 0.0, 1.0, {"start": 0.0, "end": 2.0, "cells": 5}, 3, 1.0,
+                {"contact": ["top"], "dirichlet": [{"boundary": "bottom", "value": ["free", 0.0]},
+                                                   {"boundary": "bottom_left", "value": [0.0, 0.0]}]})
+    up = block("upper", 1.0, 2.0, UPPER_X[mesh], 3, E_up,
+               {"contact": ["bottom"], "neumann": [{"boundary": "top", "type": "traction", "value": [0.0, -0.01]}],
+                "dirichlet": [{"boundary": "top_left", "value": [0.0, "free"]}]})
+    return {"name": "patch", "time": {"type": "static", "t_end": 1.0, "dt": 1.0}, "bodies": [low, up],
+            "solver": {"tol_residual": 1e-13, "tol_increment": 1e-13},
+            "contact": {"weighting": weighting, "split": split}, "output": {"every": 0, "figures": False}}
+
+
+@pytest.mark.parametrize("mesh", ["matching", "non-matching"])
+@pytest.mark.parametrize("law", ["neo_hooke", "svk"])
+def test_contact_patch_test(mesh, law):
+    """Uniform pressure transmitted exactly: on both surfaces the contact pressure equals the
+    (uniform) Cauchy stress -σ_yy of the blocks to 1e-8, the gap vanishes."""
+    sim = Simulation(problem_from_dict(patch_case(mesh, law)))
+    sim.run()
+    term = sim.system.extra_terms[0]
+    sigma = sim.system.solids[0].cell_stress()[:, 1]
+    assert np.ptp(sigma) < 1e-12
+    for name in ("lower", "upper"):
+        prof = term.profile(name)
+        assert np.all(prof[:, 4] > 0)
+        assert np.max(np.abs(prof[:, 2] + sigma.mean())) < 1e-8 * abs(sigma.mean())
+        assert np.max(np.abs(prof[:, 3])) < 1e-10
+
+
+def test_split_integration_balances_the_two_passes():
+    """Remark 9: pieces split where the opposite element edges project integrate the jumping
+    opposite stress exactly; fixed sub-intervals do not. Two blocks at maximum compression:
+    the contact forces of the two passes balance to 0.5 % with splitting, not without."""
+    def forces(*overrides):
+        case = get_case("two-blocks")
+        for o in ("time.t_end=1.0",) + overrides:
+            apply_override(case, o)
+        r = Simulation(problem_from_dict(case)).run()
+        return abs(r["upper_contact_force_y"] + r["lower_contact_force_y"]) / r["upper_contact_force_y"]
+
+    assert forces("contact.split=true") < 0.005
+    assert forces("contact.split=false", "contact.n_fixed=3") > 0.02
+
+
+@pytest.mark.parametrize("weighting, law, E_up", [("harmonic", "neo_hooke", 3.0), ("half", "svk", 1.0)])
+def test_contact_jacobian_matches_finite_differences(weighting, law, E_up):
+    """Penetrating non-matching surfaces: the projections of the opposite nodes split the
+    pieces (their motion is part of the Jacobian); all 4 blocks against central differences."""
+    system = System(problem_from_dict(patch_case("non-matching", law, True, weighting, E_up)))
+    ctx = StepContext(0.0, 1.0, 1.0, 1.0, True)
+    system.begin_step(ctx)
+    rng = np.random.default_rng(11)
+    x0 = 2e-3 * rng.standard_normal(system.layout.n_dofs)
+    up = system.solids[1]
+    x0[system.layout.start[up.gnode] + 1] -= 0.01  # press the upper block 0.01 into the lower one
+    x0[system.layout.start[up.gnode]] += 0.05  # and shift it sideways: projections cross element edges
+    assert jacobian_fd_error(system, ctx, x0, h=1e-7) < 1e-6
+
+
+def test_contact_jacobian_against_a_rigid_body():
+    case = get_case("hertz")
+    apply_override(case, "h=0.02")
+    system = System(problem_from_dict(case))
+    ctx = StepContext(0.0, 1.0, 1.0, 1.0, True)
+    system.begin_step(ctx)
+    rng = np.random.default_rng(2)
+    x0 = 1e-4 * rng.standard_normal(system.layout.n_dofs)
+    cyl = system.solids[0]
+    x0[system.layout.start[cyl.gnode] + 1] -= 0.003
+    dofs = system.layout.start[cyl.gnode[np.unique(cyl.mesh.edge_sets["arc"])]]
+    dofs = np.concatenate([dofs, dofs + 1])[:40]
+    assert jacobian_fd_error(system, ctx, x0, h=1e-8, dofs=dofs) < 1e-6
+
+
+def test_hertz_within_three_percent():
+    """Half-width and peak pressure within 3 % of Hertz (plane strain, small load)."""
+    res = Simulation(problem_from_dict(get_case("hertz"))).run()
+    assert abs(res["half_width"] / res["half_width_exact"] - 1) < 0.03
+    assert abs(res["peak_pressure"] / res["peak_pressure_exact"] - 1) < 0.03
+    assert 0.0008 < res["hertz_load"] < 0.0012
+
+
+def test_penetration_falls_with_the_penalty():
+    """γ0^S sweep (paper Fig. 12 trend): the penetration decreases monotonically."""
+    pen = []
+    for g in (0.1, 1.0, 10.0, 100.0):
+        case = get_case("hertz")
+        apply_override(case, f"contact.gamma0={g}")
+        apply_override(case, "h=0.004")
+        pen.append(Simulation(problem_from_dict(case)).run()["penetration"])
+    assert all(a > 2 * b for a, b in zip(pen[:-1], pen[1:])), pen
+
+
+def _two_blocks(swap: bool, monitor=None):
+    case = get_case("two-blocks")
+    if swap:
+        case["bodies"] = case["bodies"][::-1]
+    sim = Simulation(problem_from_dict(case))
+    reports = []
+    sim.step_hooks.append(lambda s, ctx, rep: reports.append(rep))
+    return sim.run(), sim, reports
+
+
+def test_two_blocks_unbiased_and_quadratic():
+    """Swapping which body is listed first changes nothing (to 1e-10); Newton converges
+    quadratically once the contact set is settled."""
+    a, sim_a, reps = _two_blocks(False)
+    b, sim_b, _ = _two_blocks(True)
+    for ha, hb in zip(sim_a.history, sim_b.history):
+        for k in ("uy_upper", "uy_lower", "ux_corner", "upper_contact_force_y", "lower_contact_force_y"):
+            assert abs(ha[k] - hb[k]) <= 1e-10 * max(1.0, abs(ha[k])), (k, ha[k], hb[k])
+    peak = min(sim_a.history, key=lambda h: h["uy_upper"])
+    assert peak["uy_upper"] < -0.15 and peak["upper_contact_force_y"] > 0.1
+    # action = reaction between the two passes
+    assert abs(peak["upper_contact_force_y"] + peak["lower_contact_force_y"]) < 0.02 * peak["upper_contact_force_y"]
+    # quadratic convergence at maximum compression
+    r = np.array(reps[9].residuals)
+    r = r[r > 1e-12]
+    order = np.log(r[2:] / r[1:-1]) / np.log(r[1:-1] / r[:-2])
+    assert order[-1] > 1.8, (r, order)
