@@ -62,14 +62,7 @@ def cmd_run(args) -> int:
     out = Path(args.out) if args.out else Path("results") / problem.name
     out.mkdir(parents=True, exist_ok=True)
     (out / "case.toml").write_text(_to_toml(case))
-    sim = Simulation(problem, out, Monitor(), base_dir=base)
-    try:
-        res = sim.run()
-    except SolverError as exc:
-        print(f"fsci: solver failed: {exc}. Results up to t = {sim.t:.6g} are in {out}", file=sys.stderr)
-        return 3
-    _report(res, out)
-    return 0
+    return _run_and_report(Simulation(problem, out, Monitor(), base_dir=base), out)
 
 
 def cmd_resume(args) -> int:
@@ -79,7 +72,11 @@ def cmd_resume(args) -> int:
     out = Path(args.dir)
     if not (out / "checkpoint.npz").exists() or not (out / "case.toml").exists():
         raise InputError("resume", str(out), "a run directory with case.toml and checkpoint.npz")
-    sim = Simulation.resume(out, args.set, Monitor())
+    return _run_and_report(Simulation.resume(out, args.set, Monitor()), out)
+
+
+def _run_and_report(sim, out: Path) -> int:
+    """Run to the end; a failed solve keeps everything computed so far (exit status 3)."""
     try:
         res = sim.run()
     except SolverError as exc:

@@ -438,6 +438,7 @@ def read_fluid(t: Table) -> Fluid:
         island_factor=it.num("island_factor", 2.0, lo=0),
         eps_geom=it.num("eps_geom", 1e-9, lo=0),
         grow_only_after=it.int("grow_only_after", 5, lo=1),
+        freeze_cut_after=it.int("freeze_cut_after", 8, lo=1),
         max_layout_changes=it.int("max_layout_changes", 5, lo=0),
     )
     it.done()
@@ -517,6 +518,12 @@ def problem_from_dict(case: Mapping[str, Any], base_dir: Path | None = None) -> 
     if len(set(names)) != len(names):
         raise InputError("bodies.name", names, "unique body names")
     fluid = read_fluid(top.table("fluid")) if top.has("fluid") else None
+    if fluid is not None:
+        for i, b in enumerate(bodies):
+            if b.contact:
+                raise InputError(f"bodies[{i}].contact", b.contact,
+                                 "contact is available for dry problems only (no [fluid]); fluid-structure-contact "
+                                 "(cases II-IV with fluid) is not implemented yet")
     if not bodies and fluid is None:
         raise InputError("bodies", [], "at least one body or a [fluid] table")
     time = read_time(top.table("time"))

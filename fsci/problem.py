@@ -92,6 +92,7 @@ class InterfaceSettings:
     island_factor: float = 2.0  # islands: bounding-box diagonal < factor * cell diagonal
     eps_geom: float = 1e-9  # re-cut while the bodies moved more than eps_geom * (smallest cell) since the last cut
     grow_only_after: int = 5  # Newton iterations after which the ACTIVE set may only grow
+    freeze_cut_after: int = 8  # Newton iterations after which the cut is kept fixed (paper 3.4.2)
     max_layout_changes: int = 5  # ACTIVE-set changes tolerated in one step before growing only
 
 

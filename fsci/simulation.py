@@ -217,6 +217,8 @@ class Simulation:
             "linear_solver": self.linear.name,
             "unknowns": self.system.layout.n_dofs,
             "final_time": self.t,
+            "timings": {**{k: round(v, 3) for k, v in self.system.timings.items()},
+                        **{k: round(v, 3) for k, v in self.linear.timings.items()}},
         }
         return res
 

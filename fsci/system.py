@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+import time
 import warnings
 
 from fsci.assembly import Assembly
@@ -35,6 +36,7 @@ class System:
         self._loops = [s.mesh.boundary_loops() for s in self.solids]
         self.cut: CutState | None = None
         self.layout_changes = 0
+        self.timings = {"cut": 0.0, "assembly": 0.0}
         if self.fluid is not None:
             from fsci.interface import NitscheInterface
 
@@ -81,8 +83,10 @@ class System:
         """Recompute the cut at the current positions; returns True if the ACTIVE set changed
         (the dof layout is then rebuilt and new nodes get extended values)."""
         f = self.fluid
+        t0 = time.perf_counter()
         outlines = self.outlines()
         cut = CutState(f.grid, outlines, f.spec.interface.island_factor, keep_nodes=keep_nodes)
+        self.timings["cut"] += time.perf_counter() - t0
         if initial:
             g = f.grid
             for o in outlines:
@@ -113,8 +117,8 @@ class System:
     def before_iteration(self, it: int) -> bool:
         """Before assembling Newton iteration ``it``: for steady flow, lag the frozen
         stabilisation velocity; re-cut while the bodies moved more than eps_geom since the last
-        cut (§5.2) and apply the solution-space update rule (§5.3). Returns True if the dof
-        layout changed."""
+        cut and at most ``freeze_cut_after`` iterations into the step (§5.2), and apply the
+        solution-space update rule (§5.3). Returns True if the dof layout changed."""
         f = self.fluid
         if f is not None and self.ctx.static:
             self.stab_change = float(np.linalg.norm(f.V - f.Vbar) / max(np.linalg.norm(f.V), 1e-300))
@@ -123,6 +127,8 @@ class System:
         if f is None or not self.solids or it == 1 or not self.moving():
             return False
         st = self.fluid.spec.interface
+        if it > st.freeze_cut_after:
+            return False  # cut kept fixed: Newton finishes on it (its Jacobian is exact)
         moved = max(float(np.max(np.abs(s.U - u0), initial=0.0)) for s, u0 in zip(self.solids, self._u_at_cut))
         g = self.fluid.grid
         if moved <= st.eps_geom * min(float(np.diff(g.xs).min()), float(np.diff(g.ys).min())):
@@ -264,6 +270,7 @@ class System:
     # ----------------------------------------------------------------- assembly
     def assemble(self, ctx: StepContext, want_matrix: bool = True, dirichlet: bool = True) -> Assembly:
         """Residual (and Jacobian) of all terms at the current state."""
+        t0 = time.perf_counter()
         pattern = self.patterns.get(self.layout, self.blocks()) if want_matrix else None
         asm = Assembly(self.layout, pattern, want_matrix) if want_matrix else _ResidualOnly(self.layout)
         for s in self.solids:
@@ -275,6 +282,7 @@ class System:
         if dirichlet:
             dofs, vals = self.dirichlet(ctx.t_new)
             asm.apply_dirichlet(dofs, self.gather()[dofs] - vals)
+        self.timings["assembly"] += time.perf_counter() - t0
         return asm
 
 

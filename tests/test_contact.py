@@ -146,3 +146,12 @@ def test_two_blocks_unbiased_and_quadratic():
     r = r[r > 1e-12]
     order = np.log(r[2:] / r[1:-1]) / np.log(r[1:-1] / r[:-2])
     assert order[-1] > 1.8, (r, order)
+
+
+def test_contact_with_fluid_is_rejected_clearly():
+    from fsci.errors import InputError
+
+    case = get_case("sinking-disk")
+    case["bodies"][0]["contact"] = ["surface"]
+    with pytest.raises(InputError, match="dry problems only"):
+        problem_from_dict(case)

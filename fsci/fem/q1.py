@@ -28,11 +28,13 @@ def q1_shape(r, s, N, dN):
 
 @njit(cache=True, inline="always")
 def q1_physical_gradients(xe, dN, dNx):
-    """Physical gradients ``dNx[4, 2]`` for cell coordinates ``xe[4, 2]``; returns det J."""
-    j00 = 0.0 * xe[0, 0]
-    j01 = 0.0 * xe[0, 0]
-    j10 = 0.0 * xe[0, 0]
-    j11 = 0.0 * xe[0, 0]
+    """Physical gradients ``dNx[4, 2]`` for cell coordinates ``xe[4, 2]``; returns det J.
+    Works for real and complex ``xe``/``dN`` (complex-step kernels)."""
+    zero = 0.0 * xe[0, 0] * dN[0, 0]
+    j00 = zero
+    j01 = zero
+    j10 = zero
+    j11 = zero
     for a in range(4):
         j00 += xe[a, 0] * dN[a, 0]
         j01 += xe[a, 0] * dN[a, 1]

@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from fsci.fem.q1 import q1_shape
+from fsci.fem.q1 import q1_physical_gradients, q1_shape
 from fsci.fem.sparse import add_local
 from fsci.physics.materials import cauchy_stress
 
@@ -37,31 +37,28 @@ def _stress_nn(Xe, ue, law, prm, r, s, n0, n1):
     """n·σ·n of a Q1 element (reference coords Xe, displacements ue) at local (r, s)."""
     N = np.empty(4, dtype=ue.dtype)
     dN = np.empty((4, 2), dtype=ue.dtype)
+    dNx = np.empty((4, 2), dtype=ue.dtype)
     q1_shape(r, s, N, dN)
-    j00 = 0.0 * dN[0, 0]
-    j01 = 0.0 * dN[0, 0]
-    j10 = 0.0 * dN[0, 0]
-    j11 = 0.0 * dN[0, 0]
-    for a in range(4):
-        j00 += Xe[a, 0] * dN[a, 0]
-        j01 += Xe[a, 0] * dN[a, 1]
-        j10 += Xe[a, 1] * dN[a, 0]
-        j11 += Xe[a, 1] * dN[a, 1]
-    det = j00 * j11 - j01 * j10
+    q1_physical_gradients(Xe, dN, dNx)
     F = np.empty((2, 2), dtype=ue.dtype)
-    F[0, 0] = 1.0 + 0.0 * det
-    F[0, 1] = 0.0 * det
-    F[1, 0] = 0.0 * det
-    F[1, 1] = 1.0 + 0.0 * det
-    for a in range(4):
-        gx = (j11 * dN[a, 0] - j10 * dN[a, 1]) / det
-        gy = (-j01 * dN[a, 0] + j00 * dN[a, 1]) / det
-        for i in range(2):
-            F[i, 0] += ue[a, i] * gx
-            F[i, 1] += ue[a, i] * gy
+    for i in range(2):
+        for j in range(2):
+            F[i, j] = (1.0 if i == j else 0.0) + 0.0 * dNx[0, 0]
+            for a in range(4):
+                F[i, j] += ue[a, i] * dNx[a, j]
     sig = np.empty((2, 2), dtype=ue.dtype)
     cauchy_stress(law, prm, F, sig)
     return n0 * (sig[0, 0] * n0 + sig[0, 1] * n1) + n1 * (sig[1, 0] * n0 + sig[1, 1] * n1)
+
+
+@njit(cache=True, inline="always")
+def _piece_end(d, s_fixed, A0, A1, t0, t1, L2, P0, P1, Q0, Q1):
+    """End of a contact piece: fixed (d < 0) or the projection of the opposite node d."""
+    if d < 0:
+        return s_fixed + 0.0 * A0
+    if d == 0:
+        return ((P0 - A0) * t0 + (P1 - A1) * t1) / L2
+    return ((Q0 - A0) * t0 + (Q1 - A1) * t1) / L2
 
 
 @njit(cache=True)
@@ -93,18 +90,8 @@ def contact_residual(z, r, Xo, eo, lawo, prmo, Xm, em, lawm, prmm, w_own, pen, s
     Q0 = Xm[jb, 0] + um[jb, 0]
     Q1 = Xm[jb, 1] + um[jb, 1]
     # piece ends: fixed, or the orthogonal projection of an opposite node onto the own edge
-    if d0 < 0:
-        sa = s0 + 0.0 * z[0]
-    elif d0 == 0:
-        sa = ((P0 - A0) * t0 + (P1 - A1) * t1) / L2
-    else:
-        sa = ((Q0 - A0) * t0 + (Q1 - A1) * t1) / L2
-    if d1 < 0:
-        sb = s1 + 0.0 * z[0]
-    elif d1 == 0:
-        sb = ((P0 - A0) * t0 + (P1 - A1) * t1) / L2
-    else:
-        sb = ((Q0 - A0) * t0 + (Q1 - A1) * t1) / L2
+    sa = _piece_end(d0, s0, A0, A1, t0, t1, L2, P0, P1, Q0, Q1)
+    sb = _piece_end(d1, s1, A0, A1, t0, t1, L2, P0, P1, Q0, Q1)
     e0 = Q0 - P0
     e1 = Q1 - P1
     det = -e0 * n1 + n0 * e1
