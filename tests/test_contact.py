@@ -155,3 +155,48 @@ def test_contact_with_fluid_is_rejected_clearly():
     case["bodies"][0]["contact"] = ["surface"]
     with pytest.raises(InputError, match="dry problems only"):
         problem_from_dict(case)
+
+
+def _c_shape_case():
+    pts = [(0, 0), (1, 0), (1, 0.4), (0.3, 0.4), (0.3, 0.6), (1, 0.6), (1, 1), (0, 1)]
+    names = ["bottom", "end", "slot", "slot", "slot", "end", "top", "back"]
+    loop = [{"line": [list(pts[i]), list(pts[(i + 1) % 8])], "name": names[i]} for i in range(8)]
+    body = {"name": "c", "material": {"law": "neo_hooke", "E": 1.0, "nu": 0.3},
+            "mesh": {"type": "outline", "loops": [loop], "h": 0.05},
+            "dirichlet": [{"boundary": "bottom", "value": [0.0, 0.0]},
+                          {"boundary": "top", "value": [0.0, "-0.35"], "function": {"type": "ramp", "t0": 0.0, "t1": 1.0}}],
+            "contact": ["slot"]}
+    return {"name": "c", "time": {"type": "static", "t_end": 1.0, "dt": 0.1}, "bodies": [body],
+            "contact": {"self_contact": True}, "solver": {"tol_residual": 1e-11, "tol_increment": 1e-11},
+            "quantities": [{"name": "slot", "type": "contact_profile", "body": "c", "axis": 0.3}],
+            "output": {"every": 0, "figures": False}}
+
+
+def test_self_contact_closes_a_slot():
+    """A C-shaped body pressed from the top: the slot's faces come into contact (same body,
+    two half passes on the same surface); the contact forces of the two faces balance."""
+    sim = Simulation(problem_from_dict(_c_shape_case()))
+    res = sim.run()
+    prof = sim.system.extra_terms[0].profile("c")
+    upper = prof[(prof[:, 4] > 0) & (prof[:, 7] < -0.5)]  # face of the top arm (normal pointing down)
+    lower = prof[(prof[:, 4] > 0) & (prof[:, 7] > 0.5)]
+    assert len(upper) and len(lower)
+    f_up = -np.sum(upper[:, 2] * upper[:, 5] * upper[:, 7])
+    f_lo = -np.sum(lower[:, 2] * lower[:, 5] * lower[:, 7])
+    assert f_up > 0.01 and abs(f_up + f_lo) < 0.02 * f_up
+    assert res["penetration"] < 0.05 * 0.05  # below 5 % of the element size
+
+
+def test_self_contact_jacobian():
+    case = _c_shape_case()
+    system = System(problem_from_dict(case))
+    ctx = StepContext(0.0, 1.0, 1.0, 1.0, True)
+    system.begin_step(ctx)
+    s = system.solids[0]
+    x0 = np.zeros(system.layout.n_dofs)
+    upper_arm = s.X[:, 1] > 0.5
+    x0[system.layout.start[s.gnode[upper_arm]] + 1] = -0.21  # close the 0.2 slot with a little overlap
+    x0 += 1e-4 * np.random.default_rng(4).standard_normal(len(x0))
+    slot = np.unique(s.mesh.edge_sets["slot"])
+    dofs = np.concatenate([system.layout.start[s.gnode[slot]], system.layout.start[s.gnode[slot]] + 1])[::3]
+    assert jacobian_fd_error(system, ctx, x0, h=1e-7, dofs=dofs) < 1e-6
