@@ -64,7 +64,7 @@ def stamp_falling() -> dict[str, Any]:
         "kind": "fsi",
         "description": "Rounded elastic stamp falling onto a rigid slab in viscous fluid (paper Sec. 4.1, "
                        "reconstructed), up to just before contact",
-        "parameters": {"n": 16, "q": 0.2, "p_rate": 0.0},
+        "parameters": {"n": 16, "q": 0.4, "p_rate": 0.0},
         "bodies": [slab_body(), stamp_body()],
         "fluid": {
             "rho": 1e-3,
