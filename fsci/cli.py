@@ -82,6 +82,10 @@ def _run_and_report(sim, out: Path) -> int:
     except SolverError as exc:
         print(f"fsci: solver failed: {exc}. Results up to t = {sim.t:.6g} are in {out}", file=sys.stderr)
         return 3
+    except KeyboardInterrupt:
+        print(f"fsci: interrupted at t = {sim.t:.6g}; checkpoint and results so far are in {out} "
+              f"(continue with: fsci resume {out})", file=sys.stderr)
+        return 130
     _report(res, out)
     return 0
 

@@ -116,8 +116,12 @@ class Simulation:
         while True:
             saved = snapshot(self.system)
             ctx = StepContext(self.t, self.t + dt, dt, p.time.theta, static)
-            self.system.begin_step(ctx)
-            rep = self.solve_step(ctx)
+            try:
+                self.system.begin_step(ctx)
+                rep = self.solve_step(ctx)
+            except KeyboardInterrupt:
+                restore(self.system, saved)  # back to the last completed step for the checkpoint
+                raise
             self.newton_total += rep.iterations
             if rep.converged:
                 break
@@ -170,19 +174,15 @@ class Simulation:
                     self.writer.write(self.system, self.t)
         if self.monitor is not None:
             self.monitor.start(self)
+        from fsci.io.checkpoint import write_checkpoint
+
         every = self.problem.output.every
         try:
-            while not self.finished():
-                self.advance()
-                if self.monitor is not None:
-                    self.monitor.step_done(self)
-                if self.writer is not None and every > 0 and self.step % every == 0:
-                    self.writer.write(self.system, self.t)
-                ck = self.problem.output.checkpoint_every
-                if self.out_dir is not None and ck > 0 and self.step % ck == 0:
-                    from fsci.io.checkpoint import write_checkpoint
-
-                    write_checkpoint(self, self.out_dir)
+            self._loop(every)
+        except KeyboardInterrupt:
+            if self.out_dir is not None:
+                write_checkpoint(self, self.out_dir)  # the last completed step
+            raise
         finally:
             if self.monitor is not None:
                 self.monitor.stop(self)
@@ -191,10 +191,22 @@ class Simulation:
         if self.writer is not None and (every == 0 or self.step % every != 0):
             self.writer.write(self.system, self.t)
         if self.out_dir is not None:
-            from fsci.io.checkpoint import write_checkpoint
-
             write_checkpoint(self, self.out_dir)
         return self.finalize()
+
+    def _loop(self, every: int) -> None:
+        """Steps to the end time with field output and periodic checkpoints."""
+        from fsci.io.checkpoint import write_checkpoint
+
+        ck = self.problem.output.checkpoint_every
+        while not self.finished():
+            self.advance()
+            if self.monitor is not None:
+                self.monitor.step_done(self)
+            if self.writer is not None and every > 0 and self.step % every == 0:
+                self.writer.write(self.system, self.t)
+            if self.out_dir is not None and ck > 0 and self.step % ck == 0:
+                write_checkpoint(self, self.out_dir)
 
     def results(self) -> dict:
         values = self.quantities.final_values(self.history, self.out_dir)
