@@ -482,7 +482,6 @@ def read_solver(t: Table) -> SolverSettings:
         step_cut_factor=t.num("step_cut_factor", 0.5, lo=0, hi=1, lo_open=True, hi_open=True),
         dt_min=t.num("dt_min", 0.0, lo=0),
         outer_tol=t.num("outer_tol", 1e-4, lo=0, lo_open=True),
-        outer_max=t.int("outer_max", 8, lo=1),
     )
     t.done()
     return s

@@ -154,8 +154,7 @@ class SolverSettings:
     max_step_cuts: int = 6
     step_cut_factor: float = 0.5
     dt_min: float = 0.0
-    outer_tol: float = 1e-4  # steady flow: relative change of the frozen stabilisation velocity
-    outer_max: int = 8
+    outer_tol: float = 1e-4  # steady flow: relative change of the lagged stabilisation velocity
 
 
 @dataclass

@@ -27,10 +27,6 @@ CASES: dict[str, tuple[str, Callable[[], dict[str, Any]]]] = {
 }
 
 
-def case_names() -> list[str]:
-    return list(CASES)
-
-
 def get_case(name: str) -> dict[str, Any]:
     """The case dictionary of a built-in case (a fresh copy)."""
     return CASES[name][1]()

@@ -49,9 +49,6 @@ class Segments:
     def __len__(self) -> int:
         return len(self.body)
 
-    def select(self, mask: np.ndarray) -> "Segments":
-        return Segments(self.body[mask], self.edge[mask], self.s0[mask], self.s1[mask], self.cell[mask], self.fs[mask])
-
 
 @njit(cache=True)
 def _raster_edges(p0, p1, xs, ys, tol, mark):

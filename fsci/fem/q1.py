@@ -6,9 +6,6 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-XI_NODES = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
-
-
 @njit(cache=True, inline="always")
 def q1_shape(r, s, N, dN):
     """Fill ``N[4]`` and reference derivatives ``dN[4, 2]`` at ``(r, s)`` (real or complex)."""

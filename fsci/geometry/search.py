@@ -11,7 +11,8 @@ element edges (paper Remark 9), each piece seeing one opposite segment.
 Rules: the opposite segment must face the edge (``n_e · n_f < -0.1``, 4C's criterion); the gap
 ``g_n = (x̌ - x)·n`` at the piece's midpoint must satisfy ``|g_n| <= radius`` (beyond the
 cut-off ``g_n = ∞``); where several opposite segments are hit, the nearest (smallest ``|g_n|``)
-wins.
+wins. (The same projection will give the gap of the slip-length law (40) once contact and
+fluid are combined.)
 
 End-point descriptors: ``-1`` fixed parameter (``s0``/``s1`` as given), ``0``/``1`` the
 projection of the opposite segment's first/second node.
@@ -177,29 +178,3 @@ def _resolve_overlaps(surfaces, own, e, osf, f, s0, s1, d0, d1, radius, split) -
     arr = list(zip(*out))
     return Pieces(np.array(arr[0], np.int64), np.array(arr[1], np.int64), np.array(arr[2], np.int64),
                   np.array(arr[3], float), np.array(arr[4], float), np.array(arr[5], np.int64), np.array(arr[6], np.int64))
-
-
-def gaps_at(surfaces: list[Surface], own: int, points: np.ndarray, normals: np.ndarray, radius: float) -> np.ndarray:
-    """Gap g_n of given points with normals against the other surfaces (∞ without a facing
-    segment within the cut-off); used by the slip-length law (40)."""
-    g_best = np.full(len(points), np.inf)
-    for k, sf in enumerate(surfaces):
-        if k == own:
-            continue
-        P = sf.x[sf.edges[:, 0]]
-        Q = sf.x[sf.edges[:, 1]]
-        n_opp = sf.normals()
-        tree = shapely.STRtree(shapely.linestrings(np.stack([P, Q], axis=1)))
-        rays = shapely.linestrings(np.stack([points - radius * normals, points + radius * normals], axis=1))
-        ip, jf = tree.query(rays, predicate="intersects")
-        if len(ip) == 0:
-            continue
-        face = np.einsum("ij,ij->i", normals[ip], n_opp[jf]) < FACING
-        ip, jf = ip[face], jf[face]
-        d = Q[jf] - P[jf]
-        w = points[ip] - P[jf]
-        n = normals[ip]
-        det = -d[:, 0] * n[:, 1] + n[:, 0] * d[:, 1]
-        g = (d[:, 0] * w[:, 1] - d[:, 1] * w[:, 0]) / det
-        np.minimum.at(g_best, ip, np.where(np.abs(g) <= radius, g, np.inf))
-    return g_best

@@ -108,12 +108,6 @@ class QuadMesh:
         idx = np.nonzero(once)[0]
         return BoundaryEdges(edges=edges[idx], cell=idx // 4, local=idx % 4)
 
-    def edge_set(self, name: str) -> np.ndarray:
-        """Edges of a named set; raises :class:`KeyError` with the known names."""
-        if name not in self.edge_sets:
-            raise KeyError(name)
-        return self.edge_sets[name]
-
     def parent_of_edges(self, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Parent cell and local edge index of given boundary edges ``(n, 2)``."""
         b = self.boundary

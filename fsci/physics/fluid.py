@@ -214,8 +214,8 @@ def assemble_fluid_faces(xs, ys, nx, gcells, faces, ghost, Vbar, V, P, prm, gnod
         _face_union(gcells, cl, cr, d, fn, rmap)
         for a in range(6):
             nodes[a] = gnode[fn[a]]
-        xl, yl, hxl, hyl = _cell_geometry(xs, ys, nx, cl)
-        xr, yr, hxr, hyr = _cell_geometry(xs, ys, nx, cr)
+        _, _, hxl, hyl = _cell_geometry(xs, ys, nx, cl)
+        _, _, hxr, hyr = _cell_geometry(xs, ys, nx, cr)
         if d == 0:
             h = max(hxl, hxr)
             flen = hyl

@@ -34,7 +34,6 @@ class NewtonReport:
     residuals: list[float] = field(default_factory=list)
     field_residuals: list[dict[str, float]] = field(default_factory=list)
     reason: str = ""
-    restarts: int = 0
 
 
 def _norms(vec: np.ndarray, dofs: dict[str, np.ndarray], kind: str) -> dict[str, float]:
@@ -68,7 +67,6 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
             totals = []
             r0 = None
             inc_norms = None
-            report.restarts += 1
         asm = system.assemble(ctx, want_matrix=True)
         R = asm.rhs
         if not np.all(np.isfinite(R)):
