@@ -150,3 +150,21 @@ def test_sinking_disk_smooth_traction(tmp_path):
     # smoothness: second differences are small compared with the force (no jumps from cut changes)
     d2 = np.abs(np.diff(F[2:], 2))
     assert d2.max() < 0.05 * np.abs(F).max(), d2.max()
+
+
+def test_interrupt_keeps_a_resumable_checkpoint(monkeypatch, tmp_path):
+    """Ctrl-C in the middle of step 3: the checkpoint holds step 2, the run can be resumed."""
+    real = simulation_module.solve_nonlinear
+
+    def interrupted(system, ctx, *args, **kw):
+        if ctx.t_old >= 0.04 - 1e-12:
+            raise KeyboardInterrupt
+        return real(system, ctx, *args, **kw)
+
+    monkeypatch.setattr(simulation_module, "solve_nonlinear", interrupted)
+    out = tmp_path / "int"
+    assert main(["run", "sinking-disk", *_sink_args(), "--out", str(out)]) == 130
+    assert read_checkpoint(out)[1]["step"] == 2
+    monkeypatch.setattr(simulation_module, "solve_nonlinear", real)
+    assert main(["resume", str(out)]) == 0
+    assert read_checkpoint(out)[1]["step"] == 6
