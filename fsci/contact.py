@@ -187,18 +187,23 @@ class NitscheContact:
         return w, g0 * (w * phi_o + (1.0 - w) * phi_m)
 
     # ----------------------------------------------------------------- term interface
+    def _current(self) -> dict | None:
+        """Per-piece data of the current displacements (gathered once per state)."""
+        key = self._state_key()
+        if getattr(self, "_data_key", None) != key:
+            self._data = self._gather()
+            self._data_key = key
+        return self._data
+
     def blocks(self, system) -> list[np.ndarray]:
-        d = self._gather()
-        self._data = d
+        d = self._current()
         return [] if d is None else [d["conn"]]
 
     def begin_step(self, system, ctx: StepContext) -> None:
         self.update_penalty(system)
 
     def assemble(self, system, asm: Assembly, ctx: StepContext) -> None:
-        d = self._gather() if getattr(self, "_data_key", None) != self._state_key() else self._data
-        self._data = d
-        self._data_key = self._state_key()
+        d = self._current()
         if d is None:
             self.result = []
             return
