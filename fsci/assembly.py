@@ -49,3 +49,24 @@ class Assembly:
 
     def matrix(self) -> sp.csr_matrix:
         return self.pattern.matrix(self.data)
+
+
+class ResidualAssembly(Assembly):
+    """Residual evaluation without a matrix (no pattern is built)."""
+
+    def __init__(self, layout: DofLayout) -> None:
+        self.layout = layout
+        self.pattern = None
+        self.want_matrix = False
+        self.data = np.zeros(1)
+        self.rhs = np.zeros(layout.n_dofs)
+
+    def target(self) -> tuple:
+        z = np.zeros(self.layout.n_nodes, dtype=np.int64)
+        return (self.data, self.rhs, z, z, self.layout.start, self.layout.ndof, False)
+
+    def positions(self, conn: np.ndarray) -> np.ndarray:
+        return np.zeros((len(conn), conn.shape[1], conn.shape[1]), dtype=np.int32)
+
+    def apply_dirichlet(self, dofs: np.ndarray, residual: np.ndarray) -> None:
+        self.rhs[dofs] = residual

@@ -208,22 +208,20 @@ class SolidField:
 
     def old_force(self, ctx: StepContext) -> np.ndarray:
         """(1 - theta) (F_int(d_n) - F_follower(d_n)) as a nodal array ``(n, 2)``."""
-        from fsci.fem.sparse import DofLayout, Pattern
+        from fsci.assembly import ResidualAssembly
+        from fsci.fem.sparse import DofLayout
 
-        lay = DofLayout(np.full(self.n, 2))
-        gid = np.arange(self.n, dtype=np.int64)
-        pat = Pattern(lay, [])
-        asm = Assembly(lay, pat, want_matrix=False)
+        asm = ResidualAssembly(DofLayout(np.full(self.n, 2)))
         tgt = asm.target()
+        gid = np.arange(self.n, dtype=np.int64)
         cells = self.mesh.cells
-        dummy = np.zeros((len(cells), 4, 4), dtype=np.int32)
         sk.assemble_solid(self.X, cells, self.Un, self.law, self.prm, self.rho, 0.0, self.Un, 1.0 - ctx.theta,
-                          np.zeros((len(cells) * len(self.qw), 2)), self.qxi, self.qw, gid, dummy, *tgt)
+                          np.zeros((len(cells) * len(self.qw), 2)), self.qxi, self.qw, gid, asm.positions(cells), *tgt)
         for edges, nm in self._neumann:
             if nm.kind == "pressure":
                 _, p = self._edge_loads(edges, nm, ((ctx.t_old, 1.0 - ctx.theta),))
-                pos = np.zeros((len(edges), 2, 2), dtype=np.int32)
-                sk.assemble_edge_loads(self.X, self.Un, edges, np.zeros((len(edges), 2)), p, gid, pos, *tgt)
+                sk.assemble_edge_loads(self.X, self.Un, edges, np.zeros((len(edges), 2)), p, gid,
+                                       asm.positions(edges), *tgt)
         return asm.rhs.reshape(-1, 2)
 
     def cell_stress(self) -> np.ndarray:

@@ -13,7 +13,7 @@ import numpy as np
 import time
 import warnings
 
-from fsci.assembly import Assembly
+from fsci.assembly import Assembly, ResidualAssembly
 from fsci.cut.state import CutState
 from fsci.cut.transfer import extend_to_new_nodes
 from fsci.errors import GeometryError, InputError
@@ -46,7 +46,7 @@ class System:
                 raise InputError("bodies", "initial geometry", str(exc)) from None
             if self.solids:
                 self.extra_terms.append(NitscheInterface(self))
-        if sum(1 for b in problem.bodies if b.contact) >= 1 and len(problem.bodies) >= 2 or problem.contact.self_contact:
+        if any(b.contact for b in problem.bodies):
             from fsci.contact import NitscheContact
 
             self.extra_terms.append(NitscheContact(self, problem.contact))
@@ -272,7 +272,7 @@ class System:
         """Residual (and Jacobian) of all terms at the current state."""
         t0 = time.perf_counter()
         pattern = self.patterns.get(self.layout, self.blocks()) if want_matrix else None
-        asm = Assembly(self.layout, pattern, want_matrix) if want_matrix else _ResidualOnly(self.layout)
+        asm = Assembly(self.layout, pattern, want_matrix) if want_matrix else ResidualAssembly(self.layout)
         for s in self.solids:
             s.assemble(asm, ctx)
         if self.fluid is not None:
@@ -284,24 +284,6 @@ class System:
             asm.apply_dirichlet(dofs, self.gather()[dofs] - vals)
         self.timings["assembly"] += time.perf_counter() - t0
         return asm
-
-
-class _ResidualOnly(Assembly):
-    """Residual evaluation without a matrix pattern."""
-
-    def __init__(self, layout: DofLayout) -> None:
-        self.layout = layout
-        self.pattern = None
-        self.want_matrix = False
-        self.data = np.zeros(1)
-        self.rhs = np.zeros(layout.n_dofs)
-
-    def target(self) -> tuple:
-        z = np.zeros(self.layout.n_nodes, dtype=np.int64)
-        return (self.data, self.rhs, z, z, self.layout.start, self.layout.ndof, False)
-
-    def apply_dirichlet(self, dofs: np.ndarray, residual: np.ndarray) -> None:
-        self.rhs[dofs] = residual
 
 
 def snapshot(system: System) -> dict[str, np.ndarray]:

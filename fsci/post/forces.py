@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from fsci.system import _ResidualOnly
+from fsci.assembly import ResidualAssembly
 
 
 def fluid_bulk_residual(system) -> np.ndarray:
     """Fluid residual without interface terms and Dirichlet rows, per background node ``(n, 3)``."""
     f = system.fluid
-    asm = _ResidualOnly(system.layout)
+    asm = ResidualAssembly(system.layout)
     f.assemble(asm, system.ctx)
     out = np.zeros((f.grid.n_nodes, 3))
     act = np.nonzero(f.active)[0]
