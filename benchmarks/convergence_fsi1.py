@@ -1,6 +1,10 @@
 """Mesh convergence of Turek-Hron FSI1 with cylinder and bar embedded (docs/validation.md).
 
-Usage:  python benchmarks/convergence_fsi1.py [--m 4 6 8 12 16] [--ny 16]
+Usage:  python benchmarks/convergence_fsi1.py [--m 4 6 8 12 16] [--ny 16] [--shift 0.37]
+
+``--shift s`` moves the uniform band of the background grid (and so every grid line near
+cylinder and bar) by ``s·h`` in x and y: the bar's surfaces and tip then cut cells instead
+of lying on grid lines, which measures the sensitivity to the cut position.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ REF = {"ux_A": 2.270493e-5, "uy_A": 8.208773e-4, "drag": 14.29426, "lift": 0.763
 ap = argparse.ArgumentParser()
 ap.add_argument("--m", type=int, nargs="+", default=[4, 6, 8, 12, 16])
 ap.add_argument("--ny", type=int, default=16)
+ap.add_argument("--shift", type=float, default=0.0, help="band shift in cells (0 = bar surfaces on grid lines)")
 args = ap.parse_args()
 print("| m (cells across bar) | h | unknowns | ux(A) | err | uy(A) | err | drag | err | lift | err | Newton | time [s] |")
 print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
@@ -24,9 +29,12 @@ for m in args.m:
     c = get_case("turek-hron-fsi1")
     for o in (f"m={m}", f"ny={args.ny}", f"nx={args.ny * 35 // 2}"):
         apply_override(c, o)
+    d = args.shift * 0.02 / m
+    c["fluid"]["grid"]["x"]["breaks"][1:3] = [0.14 + d, 0.66 + d]
+    c["fluid"]["grid"]["y"]["breaks"][1:3] = [0.14 + d, 0.26 + d]
     sim = Simulation(problem_from_dict(c))
     t0 = time.perf_counter()
     r = sim.run()
-    cells = " | ".join(f"{r[k]:.6g} | {abs(r[k] / REF[k] - 1):.2%}" for k in REF)
-    print(f"| {m} | {0.02 / m:.5f} | {sim.system.layout.n_dofs} | {cells} | {r['run']['newton_iterations']} | "
+    cells = " | ".join(f"{r[k]:.6g} | {r[k] / REF[k] - 1:+.2%}" for k in REF)
+    print(f"| {m}{f', shift {args.shift} h' if args.shift else ''} | {0.02 / m:.5f} | {sim.system.layout.n_dofs} | {cells} | {r['run']['newton_iterations']} | "
           f"{time.perf_counter() - t0:.0f} |", flush=True)

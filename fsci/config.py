@@ -34,7 +34,7 @@ from fsci.timefunc import make_time_function
 
 QUANTITY_KINDS = (
     "point_displacement", "body_force", "pressure_difference", "flow_rate", "oscillation",
-    "centerline_profiles", "vortex_center", "mass_balance", "body_force", "contact_profile", "hertz_exact",
+    "centerline_profiles", "vortex_center", "mass_balance", "body_moment", "contact_profile", "hertz_exact",
 )
 
 

@@ -135,6 +135,7 @@ class NitscheInterface:
                                d["cu"], d["vq"], d["kap"], d["gam"], d["a_t"], f.V, f.P, f.mu, f.sym, self.sadj,
                                self.gp, self.gw, conn, asm.positions(conn), *asm.target(), self.traction)
         self._last = (idx, d)
+        self._body = system.cut.segments.body[idx]
 
     # ----------------------------------------------------------------- post-processing
     def output_meshes(self, system):
@@ -164,17 +165,30 @@ class NitscheInterface:
                                       "body": [np.concatenate(body).astype(np.int32) if body else np.zeros(0, np.int32)]})
         return [("interface", mesh)]
 
-    def forces(self, system) -> np.ndarray:
-        """Force of the fluid on each body, ∫_Γ^FS σ_Γ ds (traction form), ``(n_bodies, 2)``,
-        from the last assembly."""
-        out = np.zeros((len(system.solids), 2))
+    def traction_samples(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The interface traction σ_Γ of the last assembly at its Gauss points.
+
+        Returns
+        -------
+        x : (K, G, 2) Gauss-point positions on the K wetted pieces
+        w : (K, G) quadrature weights (length)
+        t : (K, G, 2) traction of the fluid on the body
+        body : (K,) body index of each piece
+        """
         if not hasattr(self, "_last"):
-            return out
+            return np.zeros((0, N_GAUSS, 2)), np.zeros((0, N_GAUSS)), np.zeros((0, N_GAUSS, 2)), np.zeros(0, int)
         idx, d = self._last
         x = d["X"] + d["U"]
-        L = np.linalg.norm(x[:, 1] - x[:, 0], axis=1) * (d["s1"] - d["s0"])
-        F = np.einsum("k,g,kgc->kc", L, self.gw, self.traction)
-        body = system.cut.segments.body[idx]
-        for b in range(len(system.solids)):
-            out[b] = F[body == b].sum(axis=0)
+        w = (np.linalg.norm(x[:, 1] - x[:, 0], axis=1) * (d["s1"] - d["s0"]))[:, None] * self.gw[None, :]
+        return self._gauss_points(x, d["s0"], d["s1"]), w, self.traction, self._body
+
+    def loads(self, system, about: np.ndarray | None = None) -> np.ndarray:
+        """Force and moment of the fluid on each body, ``(n_bodies, 3)``: ∫_Γ^FS σ_Γ ds and
+        ∫_Γ^FS (x − about) × σ_Γ ds (traction form, last assembly)."""
+        xq, w, t, body = self.traction_samples()
+        r = xq - (np.zeros(2) if about is None else np.asarray(about, float))
+        per_piece = np.column_stack([np.einsum("kg,kgc->kc", w, t),
+                                     np.einsum("kg,kg->k", w, r[..., 0] * t[..., 1] - r[..., 1] * t[..., 0])])
+        out = np.zeros((len(system.solids), 3))
+        np.add.at(out, body, per_piece)
         return out

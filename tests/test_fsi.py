@@ -52,20 +52,25 @@ def test_restart_is_bitwise_identical(tmp_path):
             assert r_part[k] == v, k
 
 
-def test_failed_step_is_retried_with_a_smaller_step(monkeypatch, tmp_path):
-    """Step 2 is forced to fail once: it is retried with Δt/2 and the run completes."""
-    calls = {"n": 0}
+def _fail_newton_when(monkeypatch, condition) -> object:
+    """Make every Newton solve whose step context satisfies ``condition`` report failure;
+    returns the real solver."""
     real = simulation_module.solve_nonlinear
 
-    def flaky(system, ctx, *args, **kw):
-        calls["n"] += 1
+    def solve(system, ctx, *args, **kw):
         rep = real(system, ctx, *args, **kw)
-        if abs(ctx.t_old - 0.02) < 1e-12 and abs(ctx.dt - 0.02) < 1e-12:
+        if condition(ctx):
             rep.converged = False
             rep.reason = "forced failure (test)"
         return rep
 
-    monkeypatch.setattr(simulation_module, "solve_nonlinear", flaky)
+    monkeypatch.setattr(simulation_module, "solve_nonlinear", solve)
+    return real
+
+
+def test_failed_step_is_retried_with_a_smaller_step(monkeypatch, tmp_path):
+    """Step 2 is forced to fail once: it is retried with Δt/2 and the run completes."""
+    _fail_newton_when(monkeypatch, lambda ctx: abs(ctx.t_old - 0.02) < 1e-12 and abs(ctx.dt - 0.02) < 1e-12)
     out = tmp_path / "cut"
     assert main(["run", "sinking-disk", *_sink_args(["time.t_end=0.08"]), "--out", str(out)]) == 0
     rows = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
@@ -75,16 +80,7 @@ def test_failed_step_is_retried_with_a_smaller_step(monkeypatch, tmp_path):
 
 
 def test_unrecoverable_failure_writes_checkpoint_and_results(monkeypatch, tmp_path):
-    real = simulation_module.solve_nonlinear
-
-    def failing(system, ctx, *args, **kw):
-        rep = real(system, ctx, *args, **kw)
-        if ctx.t_old >= 0.04 - 1e-12:
-            rep.converged = False
-            rep.reason = "forced failure (test)"
-        return rep
-
-    monkeypatch.setattr(simulation_module, "solve_nonlinear", failing)
+    real = _fail_newton_when(monkeypatch, lambda ctx: ctx.t_old >= 0.04 - 1e-12)
     out = tmp_path / "fail"
     assert main(["run", "sinking-disk", *_sink_args(["solver.max_step_cuts=2"]), "--out", str(out)]) == 3
     state, meta = read_checkpoint(out)

@@ -1,10 +1,11 @@
-"""Fluid forces on bodies and flow rates through interfaces (paper (44)).
+"""Fluid forces and moments on bodies, and flow rates through interfaces (paper (44)).
 
 * Volume (Babuška-Miller / John) form: ``F·e = -R_bulk(w_e)`` where ``R_bulk`` is the fluid
   residual (Galerkin + stabilisation, no interface terms) and ``w_e = e`` on the nodes of the
-  cells that contain the body's wetted interface, 0 elsewhere (../shared/VALIDATION.md).
-* Traction form: ``∫_Γ^FS σ_Γ ds`` with the Nitsche interface traction σ_Γ (27), (37) — the
-  negative of the interface contributions to the solid residual.
+  cells that contain the body's wetted interface, 0 elsewhere (../shared/VALIDATION.md); the
+  moment takes the rigid rotation ``w = e_z × (x − x_0)`` instead.
+* Traction form: ``∫_Γ^FS σ_Γ ds`` and ``∫_Γ^FS (x − x_0) × σ_Γ ds`` with the Nitsche interface
+  traction σ_Γ (27), (37) — the negative of the interface contributions to the solid residual.
 """
 
 from __future__ import annotations
@@ -27,24 +28,28 @@ def fluid_bulk_residual(system) -> np.ndarray:
     return out
 
 
-def volume_force(system, bodies: list[int]) -> np.ndarray:
-    """Force of the fluid on a set of bodies by the volume form (w = 1 on the nodes of every
-    cell containing one of their wetted pieces: no double counting where bodies meet)."""
+def volume_loads(system, bodies: list[int], about=None) -> np.ndarray:
+    """Force and moment (about ``about``, default the origin) of the fluid on a set of bodies by
+    the volume form, ``[F_x, F_y, M]``: ``-R_bulk(w)`` with ``w = e_x``, ``e_y`` and the rigid
+    rotation ``e_z × (x − about)`` on the nodes of every cell containing one of their wetted
+    pieces (Q1 reproduces both exactly there; no double counting where bodies meet)."""
     seg = system.cut.segments
     cells = seg.cell[np.isin(seg.body, bodies) & seg.fs]
     if len(cells) == 0:
-        return np.zeros(2)
+        return np.zeros(3)
     nodes = np.unique(system.fluid.grid.cells[cells])
-    R = fluid_bulk_residual(system)
-    return -R[nodes, :2].sum(axis=0)
+    R = fluid_bulk_residual(system)[nodes, :2]
+    r = system.fluid.grid.nodes[nodes] - (np.zeros(2) if about is None else np.asarray(about, float))
+    return -np.array([R[:, 0].sum(), R[:, 1].sum(), np.sum(r[:, 0] * R[:, 1] - r[:, 1] * R[:, 0])])
 
 
-def traction_force(system, bodies: list[int]) -> np.ndarray:
-    """Force of the fluid on a set of bodies: ∫ σ_Γ over their wetted interface (last assembly)."""
+def traction_loads(system, bodies: list[int], about=None) -> np.ndarray:
+    """``[F_x, F_y, M]`` of the fluid on a set of bodies: ∫ σ_Γ and ∫ (x − about) × σ_Γ over
+    their wetted interface (last assembly)."""
     for term in system.extra_terms:
-        if hasattr(term, "forces"):
-            return term.forces(system)[bodies].sum(axis=0)
-    return np.zeros(2)
+        if hasattr(term, "loads"):
+            return term.loads(system, about)[bodies].sum(axis=0)
+    return np.zeros(3)
 
 
 def interface_flow_rates(system, body: int | None = None) -> tuple[float, float]:

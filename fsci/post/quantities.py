@@ -77,15 +77,19 @@ class QuantityEvaluator:
                 side = q.params.get("boundary")
                 if side not in ("left", "right", "bottom", "top"):
                     raise InputError(self._field(q, "boundary"), side, "left, right, bottom or top")
-        elif q.kind == "body_force":
+        elif q.kind in ("body_force", "body_moment"):
             names = [b.name for b in s.solids]
             body = q.params.get("body")
             bodies = body if isinstance(body, list) else [body]
             if s.fluid is None or not bodies or any(b not in names for b in bodies):
                 raise InputError(self._field(q, "body"), body, "a body (or list of bodies) immersed in the fluid ("
                                  + ", ".join(names) + ")")
-            if q.params.get("component", 0) not in (0, 1):
+            if q.kind == "body_force" and q.params.get("component", 0) not in (0, 1):
                 raise InputError(self._field(q, "component"), q.params.get("component"), "0 (x) or 1 (y)")
+            about = q.params.get("about", [0.0, 0.0])
+            if q.kind == "body_moment" and not (isinstance(about, list) and len(about) == 2 and all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool) for v in about)):
+                raise InputError(self._field(q, "about"), about, "a point [x, y]")
             if q.params.get("method", "volume") not in ("volume", "traction"):
                 raise InputError(self._field(q, "method"), q.params.get("method"), "volume or traction")
             self._prepared[q.name] = [names.index(b) for b in bodies]
@@ -126,12 +130,15 @@ class QuantityEvaluator:
                 out[q.name] = float(p[0] - p[1])
             elif q.kind == "flow_rate":
                 out[q.name] = flow_rate(s.fluid, q.params["boundary"])
-            elif q.kind == "body_force":
-                from fsci.post.forces import traction_force, volume_force
+            elif q.kind in ("body_force", "body_moment"):
+                from fsci.post.forces import traction_loads, volume_loads
 
                 b = self._prepared[q.name]
-                F = volume_force(s, b) if q.params.get("method", "volume") == "volume" else traction_force(s, b)
-                out[q.name] = float(F[q.params.get("component", 0)] * q.params.get("scale", 1.0))
+                about = q.params.get("about", [0.0, 0.0])
+                loads = volume_loads if q.params.get("method", "volume") == "volume" else traction_loads
+                F = loads(s, b, about)
+                k = 2 if q.kind == "body_moment" else q.params.get("component", 0)
+                out[q.name] = float(F[k] * q.params.get("scale", 1.0))
             elif q.kind == "mass_balance":
                 out.update(mass_balance(s, q.name))
             elif q.kind == "contact_profile":
