@@ -13,7 +13,7 @@ import fsci.simulation as simulation_module
 from fsci.cases import get_case
 from fsci.cli import main
 from fsci.config import apply_override, problem_from_dict
-from fsci.errors import SolverError
+from fsci.errors import GeometryError, SolverError
 from fsci.fields import StepContext
 from fsci.io.checkpoint import read_checkpoint
 from fsci.simulation import Simulation
@@ -77,6 +77,27 @@ def test_failed_step_is_retried_with_a_smaller_step(monkeypatch, tmp_path):
     assert abs(rows["time"][-1] - 0.08) < 1e-12
     assert np.isclose(rows["dt"], 0.01).sum() >= 1  # the retried step
     assert rows["dt"][1] == pytest.approx(0.01) and rows["dt"][2] == pytest.approx(0.02)  # cut, then grew back
+
+
+@pytest.mark.parametrize("error", [ZeroDivisionError("division by zero"), GeometryError("outline leaves the box")])
+def test_iterate_that_cannot_be_evaluated_fails_the_step_not_the_run(monkeypatch, tmp_path, error):
+    """A Newton iterate on which a kernel divides by zero or the cut fails (a wild iterate)
+    is a failed solve: the step is retried with a smaller Δt and the run completes."""
+    real = System.assemble
+    raised = []
+
+    def assemble(self, ctx, *args, **kw):
+        if not raised and abs(ctx.t_old - 0.02) < 1e-12 and len(self.fluid.Vbar):
+            raised.append(ctx.dt)
+            raise error
+        return real(self, ctx, *args, **kw)
+
+    monkeypatch.setattr(System, "assemble", assemble)
+    out = tmp_path / "wild"
+    assert main(["run", "sinking-disk", *_sink_args(["time.t_end=0.06"]), "--out", str(out)]) == 0
+    rows = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    assert raised == [pytest.approx(0.02)] and rows["dt"][1] == pytest.approx(0.01)
+    assert abs(rows["time"][-1] - 0.06) < 1e-12
 
 
 def test_unrecoverable_failure_writes_checkpoint_and_results(monkeypatch, tmp_path):

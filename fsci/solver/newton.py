@@ -58,7 +58,15 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
     inc_norms: dict[str, float] | None = None
     totals: list[float] = []
     for it in range(1, settings.max_iterations + 2):
-        layout_changed = system.before_iteration(it) if hasattr(system, "before_iteration") else False
+        try:
+            layout_changed = system.before_iteration(it) if hasattr(system, "before_iteration") else False
+            asm = system.assemble(ctx, want_matrix=True)
+        except (SolverError, ArithmeticError) as exc:
+            # an iterate the model cannot evaluate (outline leaving the box, degenerate element):
+            # a failed solve, which the time loop retries with a smaller step
+            report.reason = f"iterate {it} cannot be evaluated: {exc}"
+            report.iterations = it - 1
+            return report
         if layout_changed:
             # the ACTIVE set changed: state transferred, Newton restarted (damping and residual
             # history reset, as 4C's outer loop); the iteration count goes on
@@ -67,7 +75,6 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
             totals = []
             r0 = None
             inc_norms = None
-        asm = system.assemble(ctx, want_matrix=True)
         R = asm.rhs
         if not np.all(np.isfinite(R)):
             report.reason = "non-finite residual"
