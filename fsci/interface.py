@@ -117,7 +117,7 @@ class NitscheInterface:
             gam += st.gamma_n * f.rho * hk / (12.0 * ctx.theta * ctx.dt)
         a_t = hk / (st.gamma_t * st.trace_constant)
         return dict(X=X, U=U, W=W, cu=cu, vq=vq, kap=kap, gam=gam, a_t=a_t, cells=cells,
-                    s0=seg.s0[idx], s1=seg.s1[idx])
+                    s0=seg.s0[idx], s1=seg.s1[idx], body=seg.body[idx])
 
     def _gauss_points(self, x: np.ndarray, s0: np.ndarray, s1: np.ndarray) -> np.ndarray:
         s = s0[:, None] + (s1 - s0)[:, None] * self.gp[None, :]
@@ -135,7 +135,6 @@ class NitscheInterface:
                                d["cu"], d["vq"], d["kap"], d["gam"], d["a_t"], f.V, f.P, f.mu, f.sym, self.sadj,
                                self.gp, self.gw, conn, asm.positions(conn), *asm.target(), self.traction)
         self._last = (idx, d)
-        self._body = system.cut.segments.body[idx]
 
     # ----------------------------------------------------------------- post-processing
     def output_meshes(self, system):
@@ -180,7 +179,7 @@ class NitscheInterface:
         idx, d = self._last
         x = d["X"] + d["U"]
         w = (np.linalg.norm(x[:, 1] - x[:, 0], axis=1) * (d["s1"] - d["s0"]))[:, None] * self.gw[None, :]
-        return self._gauss_points(x, d["s0"], d["s1"]), w, self.traction, self._body
+        return self._gauss_points(x, d["s0"], d["s1"]), w, self.traction, d["body"]
 
     def loads(self, system, about: np.ndarray | None = None) -> np.ndarray:
         """Force and moment of the fluid on each body, ``(n_bodies, 3)``: ∫_Γ^FS σ_Γ ds and
