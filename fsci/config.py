@@ -28,13 +28,13 @@ from fsci.mesh.quadmesh import QuadMesh
 from fsci.physics.materials import LAW_NAMES
 from fsci.problem import (
     Body, ContactSettings, Dirichlet, Fluid, InterfaceSettings, Material, Neumann, Output, Problem, Quantity, Reference,
-    SolverSettings, Stabilization, TimeGrid,
+    SolverSettings, Stabilization, TimeGrid, Verification,
 )
 from fsci.timefunc import make_time_function
 
 QUANTITY_KINDS = (
     "point_displacement", "body_force", "pressure_difference", "flow_rate", "oscillation",
-    "centerline_profiles", "vortex_center", "mass_balance", "body_moment", "contact_profile", "hertz_exact",
+    "centerline_profiles", "vortex_center", "mass_balance", "body_moment", "contact_profile", "hertz_exact", "reaction",
 )
 
 
@@ -395,13 +395,17 @@ def read_body(t: Table, base_dir: Path | None) -> Body:
     return Body(name, mesh, material, bf, bff, dirichlet, neumann, interface, contact, rigid, slip, iv, outside)
 
 
-def read_slip_length(t: Table) -> float | Expression:
-    """Navier slip length: a number ≥ 0, "inf" (free slip) or an expression in x, y, t."""
+def read_slip_length(t: Table) -> float | Expression | str:
+    """Navier slip length: a number ≥ 0, "inf" (free slip), "gap_law" (the contact-gap law (40)
+    with ``fluid.interface.kappa0`` and ``slip_h``) or an expression in x, y, t."""
     v = t.raw("slip_length", 0.0)
     if isinstance(v, str) and v.strip().lower() in ("inf", "infinity"):
         return math.inf
+    if isinstance(v, str) and v.strip() == "gap_law":
+        return "gap_law"
     if isinstance(v, bool) or not isinstance(v, (int, float, str)):
-        raise InputError(t.key("slip_length"), v, "a slip length ≥ 0, \"inf\" or an expression in x, y, t")
+        raise InputError(t.key("slip_length"), v,
+                         "a slip length ≥ 0, \"inf\", \"gap_law\" or an expression in x, y, t")
     if isinstance(v, str):
         return make_scalar(v, t.params, t.key("slip_length"))
     if not (v >= 0.0):
@@ -440,6 +444,9 @@ def read_fluid(t: Table) -> Fluid:
         grow_only_after=it.int("grow_only_after", 5, lo=1),
         freeze_cut_after=it.int("freeze_cut_after", 8, lo=1),
         max_layout_changes=it.int("max_layout_changes", 5, lo=0),
+        kappa0=it.num("kappa0", 0.1, lo=0, allowed="κ0 ≥ 0"),
+        slip_h=it.num("slip_h", 0.0, lo=0, allowed="h ≥ 0 (0: the largest fluid cell side)"),
+        case_iii=it.str("case_iii", "remark6", choices=("remark6", "original")),
     )
     it.done()
     t.done()
@@ -517,12 +524,10 @@ def problem_from_dict(case: Mapping[str, Any], base_dir: Path | None = None) -> 
     if len(set(names)) != len(names):
         raise InputError("bodies.name", names, "unique body names")
     fluid = read_fluid(top.table("fluid")) if top.has("fluid") else None
-    if fluid is not None:
-        for i, b in enumerate(bodies):
-            if b.contact:
-                raise InputError(f"bodies[{i}].contact", b.contact,
-                                 "contact is available for dry problems only (no [fluid]); fluid-structure-contact "
-                                 "(cases II-IV with fluid) is not implemented yet")
+    for i, b in enumerate(bodies):
+        if b.slip_length == "gap_law" and (fluid is None or not b.contact):
+            raise InputError(f"bodies[{i}].slip_length", "gap_law",
+                             "the gap law (40) needs a [fluid] and 'contact' surfaces on the body")
     if not bodies and fluid is None:
         raise InputError("bodies", [], "at least one body or a [fluid] table")
     time = read_time(top.table("time"))
@@ -543,9 +548,28 @@ def problem_from_dict(case: Mapping[str, Any], base_dir: Path | None = None) -> 
         self_contact=c.bool("self_contact", False),
     )
     c.done()
+    verification = read_verified_at(top, params) if top.has("verified_at") else None
     o = top.table("output")
     output = Output(every=o.int("every", 1, lo=0), figures=o.bool("figures", True), fields=o.bool("fields", True),
                     checkpoint_every=o.int("checkpoint_every", 0, lo=0))
     o.done()
     top.done()
-    return Problem(name, description, bodies, fluid, time, solver, quantities, refs, output, case, contact)
+    return Problem(name, description, bodies, fluid, time, solver, quantities, refs, output, case, contact,
+                   verification)
+
+
+def read_verified_at(top: Table, params: Mapping[str, float]) -> Verification:
+    """``verified_at = { n = 40, ... }``: the parameter values at which the case's reference
+    checks are verified (a test runs exactly these). A run whose parameters differ gets a
+    one-line note (printed and recorded in results.json) instead of a silent pass or fail."""
+    v = top.raw("verified_at")
+    if not isinstance(v, Mapping) or not v:
+        raise InputError("verified_at", v, "a table of case parameters and the values they are verified at")
+    verified: dict[str, float] = {}
+    for k, x in v.items():
+        if k not in params:
+            raise InputError(f"verified_at.{k}", x, "a name from [parameters] (known: " + ", ".join(params) + ")")
+        if isinstance(x, bool) or not isinstance(x, (int, float)):
+            raise InputError(f"verified_at.{k}", x, "a number")
+        verified[k] = x
+    return Verification(verified, {k: params[k] for k in verified if params[k] != verified[k]})

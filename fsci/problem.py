@@ -64,7 +64,7 @@ class Body:
     interface: list[str] | None = None  # edge sets coupled to the fluid; None = all not loaded/fixed
     contact: list[str] | None = None  # edge sets that may touch other bodies
     rigid: bool = False  # every dof prescribed
-    slip_length: float | Expression = 0.0  # Navier slip length kappa (inf = free slip)
+    slip_length: float | Expression | str = 0.0  # Navier slip length κ (inf = free slip; "gap_law": (40))
     interface_velocity: list[Expression] | None = None  # prescribed interface velocity (overrides du/dt)
     extends_outside: bool = False  # the body may cross the fluid box boundary
 
@@ -94,6 +94,9 @@ class InterfaceSettings:
     grow_only_after: int = 5  # Newton iterations after which the ACTIVE set may only grow
     freeze_cut_after: int = 8  # Newton iterations after which the cut is kept fixed (paper 3.4.2)
     max_layout_changes: int = 5  # ACTIVE-set changes tolerated in one step before growing only
+    kappa0: float = 0.1  # dimensionless slip coefficient of the gap law (40)
+    slip_h: float = 0.0  # distance h of the gap law (40); 0: the largest background cell side
+    case_iii: str = "remark6"  # case III (Γ^FS in contact): "remark6" (35) or "original" (33)
 
 
 @dataclass
@@ -177,6 +180,23 @@ class Reference:
 
 
 @dataclass
+class Verification:
+    """The parameter values at which a case's reference checks are verified (the case's
+    top-level ``verified_at`` table) and the parameters of this run that differ from them."""
+
+    verified_at: dict[str, float]
+    differs: dict[str, float]  # parameter -> value in this run, for those that differ
+
+    def note(self) -> str | None:
+        """One line saying that the run is not at the verified setting (None if it is)."""
+        if not self.differs:
+            return None
+        run = ", ".join(f"{k} = {v:g}" for k, v in self.differs.items())
+        ref = ", ".join(f"{k} = {self.verified_at[k]:g}" for k in self.differs)
+        return f"note: not the verified setting ({run}; verified at {ref}): coarser or different from the tested run"
+
+
+@dataclass
 class Output:
     """What to write: VTU every ``every`` steps (0 = only the last), figures on/off."""
 
@@ -201,3 +221,4 @@ class Problem:
     output: Output
     source: dict[str, Any]  # the (overridden) case dictionary it was read from
     contact: ContactSettings = field(default_factory=ContactSettings)
+    verification: Verification | None = None  # None: the case makes no verified_at claim

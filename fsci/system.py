@@ -14,6 +14,7 @@ import time
 import warnings
 
 from fsci.assembly import Assembly, ResidualAssembly
+from fsci.coupling import CouplingTerm
 from fsci.cut.state import CutState
 from fsci.cut.transfer import extend_to_new_nodes
 from fsci.errors import GeometryError, InputError
@@ -31,25 +32,19 @@ class System:
         self.solids = [SolidField(b, i) for i, b in enumerate(problem.bodies)]
         self.fluid = FluidField(problem.fluid) if problem.fluid is not None else None
         self.patterns = PatternCache()
-        self.extra_terms: list = []  # interface and contact terms
+        self.extra_terms: list = []  # the coupling term (FSI, contact, FSCI)
         self.interface_edges = [self._interface_edges(s) for s in self.solids]
         self._loops = [s.mesh.boundary_loops() for s in self.solids]
         self.cut: CutState | None = None
         self.layout_changes = 0
         self.timings = {"cut": 0.0, "assembly": 0.0}
         if self.fluid is not None:
-            from fsci.interface import NitscheInterface
-
             try:
                 self.update_cut(initial=True)
             except GeometryError as exc:
                 raise InputError("bodies", "initial geometry", str(exc)) from None
-            if self.solids:
-                self.extra_terms.append(NitscheInterface(self))
-        if any(b.contact for b in problem.bodies):
-            from fsci.contact import NitscheContact
-
-            self.extra_terms.append(NitscheContact(self, problem.contact))
+        if (self.fluid is not None and self.solids) or any(b.contact for b in problem.bodies):
+            self.extra_terms.append(CouplingTerm(self))
         self.build_layout()
 
     # ----------------------------------------------------------------- geometry
@@ -239,6 +234,8 @@ class System:
 
     # ----------------------------------------------------------------- steps
     def begin_step(self, ctx: StepContext) -> None:
+        for term in self.extra_terms:  # the old time level, before anything of the new step moves
+            term.store_old_level(self, ctx)
         for s in self.solids:
             if s.fixed.all():  # fully prescribed body: place it before cutting
                 nodes, comps, vals = s.dirichlet_values(ctx.t_new)
@@ -296,9 +293,6 @@ def snapshot(system: System) -> dict[str, np.ndarray]:
         f = system.fluid
         for k in ("V", "P", "Vn", "Pn", "Vbar", "active"):
             state[f"fluid.{k}"] = getattr(f, k).copy()
-    for i, term in enumerate(system.extra_terms):
-        for k, v in term.state().items() if hasattr(term, "state") else []:
-            state[f"term{i}.{k}"] = np.array(v, copy=True)
     return state
 
 
@@ -315,7 +309,3 @@ def restore(system: System, state: dict[str, np.ndarray]) -> None:
             setattr(f, k, state[f"fluid.{k}"].copy())
         if not np.array_equal(old_active, f.active):
             system.build_layout()
-    for i, term in enumerate(system.extra_terms):
-        if hasattr(term, "load_state"):
-            prefix = f"term{i}."
-            term.load_state(system, {k[len(prefix):]: v for k, v in state.items() if k.startswith(prefix)})

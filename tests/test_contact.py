@@ -157,15 +157,6 @@ def test_two_blocks_unbiased_and_quadratic():
     assert order[-1] > 1.8, (r, order)
 
 
-def test_contact_with_fluid_is_rejected_clearly():
-    from fsci.errors import InputError
-
-    case = get_case("sinking-disk")
-    case["bodies"][0]["contact"] = ["surface"]
-    with pytest.raises(InputError, match="dry problems only"):
-        problem_from_dict(case)
-
-
 def _c_shape_case():
     pts = [(0, 0), (1, 0), (1, 0.4), (0.3, 0.4), (0.3, 0.6), (1, 0.6), (1, 1), (0, 1)]
     names = ["bottom", "end", "slot", "slot", "slot", "end", "top", "back"]

@@ -45,6 +45,7 @@ class Segments:
     s1: np.ndarray
     cell: np.ndarray  # background cell evaluated for fluid quantities
     fs: np.ndarray  # True: bounds the physical fluid (Γ^FS); False: Γ^SC
+    inside: np.ndarray  # the piece faces into the fluid box (not outside it, not on a box side facing out)
 
     def __len__(self) -> int:
         return len(self.body)
@@ -295,7 +296,8 @@ class CutState:
             s0, s1, ee = s0[keep], s1[keep], ee[keep]
             rows.append((np.full(len(ee), b), ee, s0, s1))
         if not rows:
-            self.segments = Segments(*(np.zeros(0, dtype=t) for t in (np.int64, np.int64, float, float, np.int64, bool)))
+            self.segments = Segments(*(np.zeros(0, dtype=t) for t in (np.int64, np.int64, float, float, np.int64, bool,
+                                                                       bool)))
             return
         body = np.concatenate([r[0] for r in rows]).astype(np.int64)
         edge = np.concatenate([r[1] for r in rows]).astype(np.int64)
@@ -333,7 +335,10 @@ class CutState:
                 cell[k] = ok[0]
             else:  # a film below the area tolerance: not fluid (keeps quadrature and interface consistent)
                 fs[k] = False
-        self.segments = Segments(body, edge, s0, s1, cell.astype(np.int64), fs.astype(bool))
+        # faces into the box: not outside it, nor lying on a box side with the box behind it
+        x0, x1, y0, y1 = g.box
+        inside = (probe[:, 0] > x0) & (probe[:, 0] < x1) & (probe[:, 1] > y0) & (probe[:, 1] < y1)
+        self.segments = Segments(body, edge, s0, s1, cell.astype(np.int64), fs.astype(bool), inside)
 
     # ----------------------------------------------------------------- active set and faces
     def _build_active(self, keep_nodes: np.ndarray | None) -> None:

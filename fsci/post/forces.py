@@ -55,12 +55,13 @@ def traction_loads(system, bodies: list[int], about=None) -> np.ndarray:
 def interface_flow_rates(system, body: int | None = None) -> tuple[float, float]:
     """(Φ^F, Φ^S): ∫_Γ^FS v·n with the fluid velocity and with the solid velocity (44)."""
     from fsci.fem.q1 import q1_eval
-    from fsci.interface import gauss_unit
+    from fsci.fem.quadrature import gauss_line
 
     seg = system.cut.segments
     f = system.fluid
     g = f.grid
-    gp, gw = gauss_unit()
+    gx, gw = gauss_line(3)
+    gp, gw = 0.5 * (gx + 1.0), 0.5 * gw
     phi_f = 0.0
     phi_s = 0.0
     for b, s in enumerate(system.solids):

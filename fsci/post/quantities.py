@@ -12,6 +12,16 @@ Kinds (``[[quantities]]`` in a case file):
 ``centerline_profiles`` writes ``profiles.csv``: u(x=0.5, y) and v(x, y=0.5) (cavity).
 ``vortex_center``       location of the stream-function extremum: ``<name>_x``, ``<name>_y``
                         (for the cavity: ``vortex_x``, ``vortex_y``).
+``reaction``            ``body``, ``boundary`` (a node or edge set, or "body"), ``component``:
+                        the force the prescribed boundary exerts on the body, i.e. the body's
+                        own residual (internal minus external forces, no coupling or contact
+                        terms) summed over the boundary's dofs (θ-weighted in transient steps).
+``hertz_exact``         ``P`` (a load or the name of an earlier ``reaction``), ``factor``,
+                        ``R``, ``E``, ``nu``, optional ``contact`` (an earlier
+                        ``contact_profile``): plane-strain Hertz half-width and peak pressure
+                        for the load ``factor·|P|``, and with ``contact`` the ratios computed /
+                        Hertz and ``load_balance`` = factor·|contact force_y| / load (flat
+                        normal to y).
 """
 
 from __future__ import annotations
@@ -93,20 +103,30 @@ class QuantityEvaluator:
             if q.params.get("method", "volume") not in ("volume", "traction"):
                 raise InputError(self._field(q, "method"), q.params.get("method"), "volume or traction")
             self._prepared[q.name] = [names.index(b) for b in bodies]
-        elif q.kind in ("contact_profile", "hertz_exact"):
-            if q.kind == "contact_profile":
-                names = [b.name for b in s.solids if b.body.contact]
-                if q.params.get("body") not in names:
-                    raise InputError(self._field(q, "body"), q.params.get("body"), "a body with contact surfaces ("
-                                     + ", ".join(names) + ")")
-            else:
-                for key in ("R", "E", "nu"):
-                    v = q.params.get(key)
-                    if isinstance(v, bool) or not isinstance(v, (int, float)) or v <= 0 and key != "nu":
-                        raise InputError(self._field(q, key), v, "a positive number")
-                P = q.params.get("P")
-                if not (isinstance(P, str) or (isinstance(P, (int, float)) and not isinstance(P, bool) and P > 0)):
-                    raise InputError(self._field(q, "P"), P, "a positive load or the name of a computed force")
+        elif q.kind == "contact_profile":
+            names = [b.name for b in s.solids if b.body.contact]
+            if q.params.get("body") not in names:
+                raise InputError(self._field(q, "body"), q.params.get("body"), "a body with contact surfaces ("
+                                 + ", ".join(names) + ")")
+        elif q.kind == "reaction":
+            self._prepared[q.name] = self._prepare_reaction(q)
+        elif q.kind == "hertz_exact":
+            for key in ("R", "E", "nu"):
+                v = q.params.get(key)
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or v <= 0 and key != "nu":
+                    raise InputError(self._field(q, key), v, "a positive number")
+            earlier = self.problem.quantities[:self.problem.quantities.index(q)]
+            reactions = [x.name for x in earlier if x.kind == "reaction"]
+            P = q.params.get("P")
+            if not (P in reactions or (isinstance(P, (int, float)) and not isinstance(P, bool) and P > 0)):
+                raise InputError(self._field(q, "P"), P, "a positive load or the name of an earlier reaction quantity ("
+                                 + ", ".join(reactions) + ")")
+            profiles = {x.name: x for x in earlier if x.kind == "contact_profile"}
+            contact = q.params.get("contact")
+            if contact is not None and contact not in profiles:
+                raise InputError(self._field(q, "contact"), contact, "the name of an earlier contact_profile quantity ("
+                                 + ", ".join(profiles) + ")")
+            self._prepared[q.name] = None if contact is None else profiles[contact].params.get("prefix", "")
         elif q.kind == "mass_balance":
             if s.fluid is None or not s.solids:
                 raise InputError(self._field(q, "type"), q.kind, "needs a fluid and bodies")
@@ -114,6 +134,29 @@ class QuantityEvaluator:
             names = [x.name for x in self.problem.quantities]
             if q.params.get("of") not in names:
                 raise InputError(self._field(q, "of"), q.params.get("of"), "the name of another quantity")
+
+    def _prepare_reaction(self, q: Quantity) -> tuple[Any, np.ndarray, int]:
+        """(solid field, nodes of the boundary, component) of a ``reaction`` quantity."""
+        solids = {x.name: x for x in self.system.solids}
+        body = q.params.get("body")
+        if body not in solids:
+            raise InputError(self._field(q, "body"), body, "one of " + ", ".join(solids))
+        mesh = solids[body].mesh
+        boundary = q.params.get("boundary")
+        if boundary == "body":
+            nodes = np.arange(mesh.n_nodes)
+        elif boundary in mesh.node_sets:
+            nodes = np.asarray(mesh.node_sets[boundary])
+        elif boundary in mesh.edge_sets:
+            nodes = np.unique(mesh.edge_sets[boundary])
+        else:
+            known = sorted(set(mesh.node_sets) | set(mesh.edge_sets) | {"body"})
+            raise InputError(self._field(q, "boundary"), boundary, "a node or edge set of body '" + body + "' ("
+                             + ", ".join(known) + ")")
+        comp = q.params.get("component", 0)
+        if comp not in (0, 1):
+            raise InputError(self._field(q, "component"), comp, "0 (x) or 1 (y)")
+        return solids[body], nodes, comp
 
     # ----------------------------------------------------------------- per step
     def step_values(self) -> dict[str, float]:
@@ -143,12 +186,22 @@ class QuantityEvaluator:
                 out.update(mass_balance(s, q.name))
             elif q.kind == "contact_profile":
                 out.update(contact_summary(s, q.params["body"], q.params.get("axis", 0.0), q.params.get("prefix", "")))
+            elif q.kind == "reaction":
+                out[q.name] = reaction(s, *self._prepared[q.name])
             elif q.kind == "hertz_exact":
+                factor = float(q.params.get("factor", 1.0))
                 P = q.params["P"]
-                if isinstance(P, str):  # the load from another quantity (displacement control)
-                    P = abs(out[P]) * float(q.params.get("factor", 1.0))
-                out["hertz_load"] = float(P)
-                out.update(hertz_exact(float(P), *(float(q.params[k]) for k in ("R", "E", "nu"))))
+                # displacement control: the applied load is the reaction of the prescribed boundary
+                P = abs(out[P]) * factor if isinstance(P, str) else float(P)
+                exact = hertz_exact(P, *(float(q.params[k]) for k in ("R", "E", "nu")))
+                out["hertz_load"] = P
+                out.update(exact)
+                prefix = self._prepared[q.name]
+                if prefix is not None:
+                    out["half_width_ratio"] = out[f"{prefix}half_width"] / exact["half_width_exact"]
+                    out["peak_pressure_ratio"] = out[f"{prefix}peak_pressure"] / exact["peak_pressure_exact"]
+                    # the flat is normal to y; the x parts of a half model balance at its symmetry axis
+                    out["load_balance"] = abs(out[f"{prefix}contact_force_y"]) * factor / P
         return out
 
     # ----------------------------------------------------------------- final
@@ -180,9 +233,9 @@ class QuantityEvaluator:
 
 
 def contact_term(system):
-    for term in system.extra_terms:
-        if hasattr(term, "profile"):
-            return term
+    """The coupling term of a problem with contact surfaces."""
+    if system.extra_terms and any(s.body.contact for s in system.solids):
+        return system.extra_terms[0]
     raise InputError("quantities", "contact_profile", "the problem has no contact")
 
 
@@ -210,6 +263,18 @@ def contact_summary(system, body: str, axis: float, prefix: str) -> dict[str, fl
         out[f"{prefix}peak_pressure"] = float(p[loaded].max())
         out[f"{prefix}penetration"] = float(max(0.0, -gap[loaded].min()))
     return out
+
+
+def reaction(system, solid, nodes: np.ndarray, comp: int) -> float:
+    """Force the prescribed boundary ``nodes`` exert on ``solid`` in direction ``comp``: the
+    body's own residual ``F_int - F_ext`` (no interface or contact terms) summed over those
+    dofs. At a converged state the free dofs balance, so this equals minus the sum of every
+    other force on the body — an independent measure of the applied load."""
+    from fsci.assembly import ResidualAssembly
+
+    asm = ResidualAssembly(system.layout)
+    solid.assemble(asm, system.ctx)
+    return float(asm.rhs[system.layout.start[solid.gnode[nodes]] + comp].sum())
 
 
 def hertz_exact(P: float, R: float, E: float, nu: float) -> dict[str, float]:

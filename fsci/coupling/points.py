@@ -1,0 +1,198 @@
+"""The body-boundary quadrature of the coupling term, built once per geometry update.
+
+Every body's coupling boundary Γ (FORMULATION §1: its fluid interface edges, or its contact
+edges in a dry problem) is cut into straight *pieces*, each integrated with a Gauss rule. A
+piece knows, once, everything the traction kernel (:mod:`fsci.coupling.traction`) reads:
+
+* its body, edge and parameter range, split where the edge crosses fluid grid lines and other
+  bodies' outlines (from the cut, :class:`fsci.cut.state.CutState`) and where the opposite
+  contact surface's nodes project onto it (paper Remark 9); the projected ends are kept
+  symbolic so that they move with the unknowns;
+* the fluid cell its fluid quantities are taken from and whether it bounds the physical fluid
+  (Γ^FS) or not (Γ^SC, Sec. 3.1.3);
+* the opposite surface segment seen along its normal within the search cut-off (contact
+  search, paper (10)); without one, ``g_n = ∞``;
+* for a Γ^SC piece, the extension point (§4.6): the closest point of Γ^FS ∩ Γ^SC on the same
+  body, with the fluid cell on its fluid side.
+
+Pieces that can contribute nothing (dry pieces without an opposite surface, Γ^SC pieces
+without an opposite surface and without an extension point, parts outside the fluid box) are
+dropped.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fsci.geometry.search import Surface, find_pieces
+
+
+@dataclass
+class CouplingPieces:
+    """Integration pieces of all bodies (one row per piece)."""
+
+    body: np.ndarray  # body index
+    edge: np.ndarray  # index into that body's coupling edges
+    s0: np.ndarray  # parameter range on the edge (0 at its first node)
+    s1: np.ndarray
+    d0: np.ndarray  # end descriptors: -1 fixed, 0/1 projection of the opposite segment's node
+    d1: np.ndarray
+    cell: np.ndarray  # fluid cell of the piece (-1: none)
+    fs: np.ndarray  # bounds the physical fluid (Γ^FS)
+    opp_body: np.ndarray  # body of the opposite segment (-1: none, g_n = ∞)
+    opp_edge: np.ndarray  # its index in the opposite body's coupling edges
+    ext_edge: np.ndarray  # extension point: edge of the same body (-1: none)
+    ext_s: np.ndarray  # and its parameter on that edge
+    ext_cell: np.ndarray  # fluid cell on the fluid side of the extension point
+
+    def __len__(self) -> int:
+        return len(self.body)
+
+
+@dataclass
+class BoundaryOf:
+    """Coupling boundary of one body in the current configuration."""
+
+    x: np.ndarray  # current node coordinates
+    edges: np.ndarray  # coupling edges (k, 2), cell on the left
+    cell: np.ndarray  # parent cell of each edge
+    local: np.ndarray  # local edge index in the parent cell
+    contact: np.ndarray  # indices (into edges) of the edges that may touch other bodies
+
+
+def _base_pieces(boundaries: list[BoundaryOf], cut) -> list[tuple[np.ndarray, ...]]:
+    """Per body ``(edge, s0, s1, cell, fs)``: the cut's pieces inside the box, or (dry) the
+    contact edges whole."""
+    out = []
+    for b, bd in enumerate(boundaries):
+        if cut is not None:
+            seg = cut.segments
+            m = (seg.body == b) & seg.inside
+            out.append((seg.edge[m], seg.s0[m], seg.s1[m], seg.cell[m], seg.fs[m]))
+        else:
+            e = bd.contact
+            out.append((e, np.zeros(len(e)), np.ones(len(e)), np.full(len(e), -1, np.int64), np.zeros(len(e), bool)))
+    return out
+
+
+def _search(boundaries: list[BoundaryOf], radius: float, self_contact: bool, split: bool, n_fixed: int):
+    """Contact pieces per body, in coupling-edge indices: ``(edge, opp_body, opp_edge, s0, s1, d0, d1)``."""
+    bodies = [b for b, bd in enumerate(boundaries) if len(bd.contact)]
+    surfaces = [Surface(k, boundaries[b].x, boundaries[b].edges[boundaries[b].contact],
+                        boundaries[b].cell[boundaries[b].contact], boundaries[b].local[boundaries[b].contact])
+                for k, b in enumerate(bodies)]
+    out: dict[int, tuple[np.ndarray, ...]] = {}
+    for k, b in enumerate(bodies):
+        pc = find_pieces(surfaces, k, radius, self_contact, split, n_fixed)
+        if len(pc) == 0:
+            continue
+        ob = np.array(bodies, dtype=np.int64)[pc.opp_surface]
+        oe = np.array([boundaries[bb].contact[j] for bb, j in zip(ob, pc.opp_edge)], dtype=np.int64)
+        out[b] = (boundaries[b].contact[pc.edge], ob, oe, pc.s0, pc.s1, pc.d0, pc.d1)
+    return out
+
+
+def _merge(base: tuple[np.ndarray, ...], contact: tuple[np.ndarray, ...] | None) -> list[tuple]:
+    """Split the base pieces of one body at the ends of its contact pieces and attach the
+    opposite segment covering each sub-piece."""
+    e, s0, s1, cell, fs = base
+    rows = []
+    if contact is None:
+        for k in range(len(e)):
+            rows.append((e[k], s0[k], s1[k], -1, -1, cell[k], fs[k], -1, -1))
+        return rows
+    ce, ob, oe, c0, c1, cd0, cd1 = contact
+    by_edge: dict[int, list[int]] = {}
+    for j in range(len(ce)):
+        by_edge.setdefault(int(ce[j]), []).append(j)
+    for k in range(len(e)):
+        cand = by_edge.get(int(e[k]))
+        if not cand:
+            rows.append((e[k], s0[k], s1[k], -1, -1, cell[k], fs[k], -1, -1))
+            continue
+        cuts = [s0[k], s1[k]] + [v for j in cand for v in (c0[j], c1[j]) if s0[k] < v < s1[k]]
+        cuts = np.unique(cuts)
+        for lo, hi in zip(cuts[:-1], cuts[1:]):
+            if hi - lo <= 1e-13:
+                continue
+            mid = 0.5 * (lo + hi)
+            hit = [j for j in cand if c0[j] <= mid <= c1[j]]
+            if not hit:
+                rows.append((e[k], lo, hi, -1, -1, cell[k], fs[k], -1, -1))
+                continue
+            j = hit[0]
+            dl = cd0[j] if abs(lo - c0[j]) <= 1e-14 else -1
+            dh = cd1[j] if abs(hi - c1[j]) <= 1e-14 else -1
+            rows.append((e[k], lo, hi, dl, dh, cell[k], fs[k], ob[j], oe[j]))
+    return rows
+
+
+def _extension(x: np.ndarray, edges: np.ndarray, rows: np.ndarray, scale: float) -> np.ndarray:
+    """For the pieces ``rows`` of one body (columns edge, s0, s1, ..., cell, fs), the extension
+    point of every Γ^SC piece: ``(edge, s, cell)`` of the closest point of Γ^FS ∩ Γ^SC, or -1."""
+    n = len(rows)
+    ext = np.full((n, 3), -1.0)
+    if n == 0:
+        return ext
+    e = rows[:, 0].astype(np.int64)
+    a = x[edges[e, 0]]
+    d = x[edges[e, 1]] - a
+    p0 = a + rows[:, 1, None] * d
+    p1 = a + rows[:, 2, None] * d
+    fs = rows[:, 6] > 0
+    if fs.all() or not fs.any():
+        return ext
+    tol = 1e-9 * scale
+    sc_pts = np.vstack([p0[~fs], p1[~fs]])
+    cand = []  # (point, edge, s, cell) of FS piece ends touching an SC piece end
+    for end, p in ((1, p0), (2, p1)):
+        idx = np.nonzero(fs)[0]
+        dist = np.min(np.linalg.norm(p[idx, None, :] - sc_pts[None, :, :], axis=2), axis=1)
+        for k in idx[dist <= tol]:
+            cand.append((p[k], e[k], rows[k, end], rows[k, 5]))
+    if not cand:
+        return ext
+    pts = np.array([c[0] for c in cand])
+    for k in np.nonzero(~fs)[0]:
+        mid = 0.5 * (p0[k] + p1[k])
+        j = int(np.argmin(np.linalg.norm(pts - mid, axis=1)))
+        ext[k] = (cand[j][1], cand[j][2], cand[j][3])
+    return ext
+
+
+def build_pieces(boundaries: list[BoundaryOf], cut, radius: float, self_contact: bool = False, split: bool = True,
+                 n_fixed: int = 10) -> CouplingPieces:
+    """All coupling pieces of the current geometry (see the module docstring).
+
+    Parameters
+    ----------
+    boundaries
+        Coupling boundary of every body (bodies without coupling edges have empty arrays).
+    cut
+        The current :class:`fsci.cut.state.CutState` (fluid problems) or ``None`` (dry contact).
+    radius
+        Contact-search cut-off: opposite segments farther than this along the normal are not
+        seen (``g_n = ∞``).
+    self_contact, split, n_fixed
+        Contact-search options (:func:`fsci.geometry.search.find_pieces`).
+    """
+    base = _base_pieces(boundaries, cut)
+    contact = _search(boundaries, radius, self_contact, split, n_fixed)
+    cols = []
+    for b, bd in enumerate(boundaries):
+        rows = np.array(_merge(base[b], contact.get(b)), dtype=float).reshape(-1, 9)
+        scale = 1.0 + float(np.max(np.abs(bd.x))) if len(bd.x) else 1.0
+        ext = _extension(bd.x, bd.edges, rows[:, [0, 1, 2, 3, 4, 5, 6]], scale) if cut is not None else \
+            np.full((len(rows), 3), -1.0)
+        fs = rows[:, 6] > 0
+        has_opp = rows[:, 7] >= 0
+        keep = fs | has_opp | (ext[:, 0] >= 0)
+        rows, ext = rows[keep], ext[keep]
+        cols.append(np.column_stack([np.full(len(rows), b), rows, ext]))
+    a = np.vstack(cols) if cols else np.zeros((0, 13))
+    i = lambda c: a[:, c].astype(np.int64)  # noqa: E731
+    return CouplingPieces(body=i(0), edge=i(1), s0=a[:, 2].copy(), s1=a[:, 3].copy(), d0=i(4), d1=i(5), cell=i(6),
+                          fs=a[:, 7] > 0, opp_body=i(8), opp_edge=i(9), ext_edge=i(10), ext_s=a[:, 11].copy(),
+                          ext_cell=i(12))

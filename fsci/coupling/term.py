@@ -1,0 +1,486 @@
+"""The coupling term: every body boundary coupled to what lies beyond it — fluid, another body,
+or both (FORMULATION §4.4-4.6). Plain FSI and dry contact are its special cases.
+
+Per geometry update (:meth:`CouplingTerm.pieces`) the body-boundary quadrature is built once
+(:mod:`fsci.coupling.points`); per assembly the per-piece arrays are gathered and the traction
+kernel (:mod:`fsci.coupling.traction`) adds residual and exact Jacobian.
+
+Parameters per piece (fluid-sided, 4C's "xfluid" weighting, Remark 8):
+
+* ``h_K`` = area / longest edge of the background cell (4C ``ele_vol_div_by_max_ele_surf``),
+* ``γ^F = γ0^F (μ C_T / h_K + ρ |v|_∞ / 6 + ρ h_K / (12 θ Δt))`` (4C "full, sum"), ``|v|_∞``
+  the largest velocity component of the fluid cell and the solid edge at the start of the step
+  (frozen, so the Jacobian stays exact); the extension point uses its own cell's γ^F,
+* ``a = h_K / (γ0^t C_T)`` for the Navier-slip coefficients (37),
+* contact (Remark 7; 4C ``nitsche_weights_and_scaling``): per parent element of a contact edge
+  ``φ = λ_max`` of ``∫_edge (n·σ(v)·n)² ds = λ ∫_element σ(v):ε(v) dV`` (v ⊥ rigid modes, small-
+  strain tangent on the current shape, ≈ E/h), recomputed at the start of every step; harmonic
+  weights ``ω_own = φ_opp/(φ_own + φ_opp)`` or ½; a rigid body has φ = ∞ and weight 0;
+  ``γ^S = γ0^S (ω φ_own + (1 − ω) φ_opp)``,
+* the slip length of the body: a number, ∞, an expression, or the gap law (40)
+  (``slip_length = "gap_law"``, with ``κ0`` and ``h`` from ``[fluid.interface]``).
+
+Time levels: the θ-weighted parts of the old level (see :mod:`fsci.coupling.traction`) are
+evaluated at the start of a step on the converged state and its own cut, stored per node, and
+added with weight 1 − θ.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fsci.assembly import Assembly, ResidualAssembly
+from fsci.coupling import traction as tk
+from fsci.coupling.points import BoundaryOf, CouplingPieces, build_pieces
+from fsci.errors import InputError
+from fsci.expressions import Expression
+from fsci.fem.q1 import q1_eval
+from fsci.fem.quadrature import gauss_line, gauss_quad
+from fsci.fields import StepContext
+from fsci.physics.materials import LAW_NAMES
+
+GAP_LAW = "gap_law"
+CASE_NAMES = ("I", "II", "III", "IV")
+
+
+def trace_constant(Xe: np.ndarray, edge: int, E: float, nu: float) -> float:
+    """λ_max of the trace inequality of one Q1 element and one of its edges (plane strain)."""
+    lam = E * nu / ((1 + nu) * (1 - 2 * nu))
+    mu = E / (2 * (1 + nu))
+    D = np.array([[lam + 2 * mu, lam, 0.0], [lam, lam + 2 * mu, 0.0], [0.0, 0.0, mu]])
+
+    def Bmat(xi):
+        _, dN = q1_eval(xi)
+        J = np.einsum("ad,qak->qdk", Xe, dN)
+        inv = np.linalg.inv(J)
+        dNx = np.einsum("qak,qkd->qad", dN, inv)
+        B = np.zeros((len(xi), 3, 8))
+        B[:, 0, 0::2] = dNx[:, :, 0]
+        B[:, 1, 1::2] = dNx[:, :, 1]
+        B[:, 2, 0::2] = dNx[:, :, 1]
+        B[:, 2, 1::2] = dNx[:, :, 0]
+        return B, np.linalg.det(J)
+
+    xi, w = gauss_quad(2)
+    B, det = Bmat(xi)
+    K = np.einsum("q,qik,ij,qjl->kl", w * det, B, D, B)
+    a, b = edge, (edge + 1) % 4
+    gx, gw = gauss_line(3)
+    s = 0.5 * (gx + 1.0)
+    pts = (1 - s)[:, None] * tk.CORNERS[a] + s[:, None] * tk.CORNERS[b]
+    Be, _ = Bmat(pts)
+    t = Xe[b] - Xe[a]
+    L = np.linalg.norm(t)
+    n = np.array([t[1], -t[0]]) / L
+    proj = np.array([n[0] ** 2, n[1] ** 2, 2 * n[0] * n[1]])
+    bvec = np.einsum("i,ij,qjk->qk", proj, D, Be)
+    A = np.einsum("q,qk,ql->kl", 0.5 * gw * L, bvec, bvec)
+    ev, V = np.linalg.eigh(K)
+    keep = ev > 1e-10 * ev.max()
+    Z = V[:, keep] / np.sqrt(ev[keep])[None, :]
+    return float(np.linalg.eigvalsh(Z.T @ A @ Z).max())
+
+
+class CouplingTerm:
+    """Coupling of all body boundaries (FSI, contact, FSCI) in one residual term."""
+
+    def __init__(self, system) -> None:
+        p = system.problem
+        self.names = [s.name for s in system.solids]
+        self.contact = p.contact
+        f = system.fluid
+        self.iset = f.spec.interface if f is not None else None
+        self.sadj = -1.0 if self.iset is None or self.iset.adjoint == "skew" else 1.0
+        self.variant33 = self.iset is not None and self.iset.case_iii == "original"
+        x, w = gauss_line(self.contact.n_gauss)
+        self.gp, self.gw = 0.5 * (x + 1.0), 0.5 * w
+        self._edges, self._cell, self._local, self._contact = [], [], [], []
+        for i, s in enumerate(system.solids):
+            if f is not None:
+                edges = system.interface_edges[i]
+            elif s.body.contact:
+                edges = np.vstack([s.mesh.edge_sets[n] for n in s.body.contact])
+            else:
+                edges = np.zeros((0, 2), dtype=np.int64)
+            cell, local = s.mesh.parent_of_edges(edges) if len(edges) else (np.zeros(0, np.int64),) * 2
+            self._edges.append(edges)
+            self._cell.append(cell)
+            self._local.append(local)
+            self._contact.append(self._contact_indices(i, s, edges))
+        n_contact = sum(len(c) > 0 for c in self._contact)
+        if n_contact == 1 and not self.contact.self_contact:
+            i = next(k for k, c in enumerate(self._contact) if len(c))
+            raise InputError(f"bodies[{i}].contact", system.solids[i].body.contact,
+                             "contact surfaces on a second body to touch (no other body has 'contact'; "
+                             "or set contact.self_contact = true)")
+        lengths = [np.linalg.norm(s.X[e[c, 1]] - s.X[e[c, 0]], axis=1).max()
+                   for s, e, c in zip(system.solids, self._edges, self._contact) if len(c)]
+        radius = self.contact.search_radius if self.contact.search_radius > 0 else 2.0 * max(lengths, default=0.0)
+        self.slip_h = 0.0
+        if any(s.body.slip_length == GAP_LAW for s in system.solids):
+            g = f.grid
+            self.slip_h = self.iset.slip_h if self.iset.slip_h > 0 else float(g.cell_size.max())
+            radius = max(radius, 1.01 * self.slip_h)  # the law (40) needs the gap up to h
+        self.radius = radius
+        self.phi = [np.full(len(e), np.inf) for e in self._edges]
+        self._key = None
+        self._pieces: CouplingPieces | None = None
+        self._data_key = None
+        self._data: dict | None = None
+        self._old: dict[str, np.ndarray] | None = None
+        self.out = np.zeros((0, len(self.gp), tk.N_OUT))
+        self._out_body = np.zeros(0, dtype=np.int64)
+        self.update_penalty(system)
+
+    @staticmethod
+    def _contact_indices(i: int, s, edges: np.ndarray) -> np.ndarray:
+        """Indices into the coupling edges of the body's contact edges."""
+        if not s.body.contact:
+            return np.zeros(0, dtype=np.int64)
+        lookup = {(int(a), int(b)): k for k, (a, b) in enumerate(edges)}
+        out = []
+        for name in s.body.contact:
+            for a, b in s.mesh.edge_sets[name]:
+                k = lookup.get((int(a), int(b)), lookup.get((int(b), int(a))))
+                if k is None:
+                    raise InputError(f"bodies[{i}].contact", s.body.contact,
+                                     f"edge set '{name}' must be part of the body's fluid interface "
+                                     "(not loaded by a Neumann condition and listed in 'interface' if given)")
+                out.append(k)
+        return np.unique(np.asarray(out, dtype=np.int64))
+
+    # ----------------------------------------------------------------- geometry
+    def update_penalty(self, system) -> None:
+        """Trace-inequality estimates φ of every contact element at the current shape."""
+        for k, s in enumerate(system.solids):
+            phi = np.full(len(self._edges[k]), np.inf)
+            if len(self._contact[k]) and not (s.body.rigid or s.fixed.all()):
+                x = s.X + s.U
+                m = s.body.material
+                c = self._contact[k]
+                phi[c] = [trace_constant(x[s.mesh.cells[cc]], ll, m.E, m.nu)
+                          for cc, ll in zip(self._cell[k][c], self._local[k][c])]
+            self.phi[k] = phi
+
+    def _geometry_key(self, system) -> tuple:
+        if system.fluid is not None:
+            return ("cut", id(system.cut))
+        return ("dry",) + tuple(s.U.tobytes() for s, c in zip(system.solids, self._contact) if len(c))
+
+    def pieces(self, system) -> CouplingPieces:
+        """The coupling pieces of the current geometry (rebuilt with the cut; for dry contact
+        whenever the displacements changed)."""
+        key = self._geometry_key(system)
+        if key != self._key:
+            bnd = [BoundaryOf(s.X + s.U, e, c, l, k)
+                   for s, e, c, l, k in zip(system.solids, self._edges, self._cell, self._local, self._contact)]
+            st = self.contact
+            self._pieces = build_pieces(bnd, system.cut if system.fluid is not None else None, self.radius,
+                                        st.self_contact, st.split, st.n_fixed)
+            self._key = key
+        return self._pieces
+
+    # ----------------------------------------------------------------- per-piece data
+    def _weights(self, phi_o: np.ndarray, phi_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Harmonic (or ½) weights ω_own and penalties γ^S (a rigid side has φ = ∞ and weight 0)."""
+        g0 = self.contact.gamma0
+        rigid_o, rigid_m = np.isinf(phi_o), np.isinf(phi_m)
+        both = ~rigid_o & ~rigid_m
+        w = np.where(rigid_m, 1.0, 0.0)
+        pen = g0 * np.where(rigid_m, phi_o, phi_m)
+        if both.any():
+            po, pm = phi_o[both], phi_m[both]
+            wb = np.full(len(po), 0.5) if self.contact.weighting == "half" else pm / (po + pm)
+            w[both] = wb
+            pen[both] = g0 * (wb * po + (1.0 - wb) * pm)
+        return w, pen
+
+    def gather(self, system, ctx: StepContext, level: str = "new") -> dict:
+        """Kernel arrays of every piece. ``level`` "old": the solid velocity is the stored one
+        (evaluation of the old time level at the converged state)."""
+        pc = self.pieces(system)
+        K = len(pc)
+        G = len(self.gp)
+        f = system.fluid
+        z = np.zeros((K, tk.N_LOCAL))
+        conn = np.full((K, tk.N_SLOTS), -1, dtype=np.int64)
+        ip = np.zeros((K, tk.N_INT), dtype=np.int64)
+        fp = np.zeros((K, tk.N_FLT))
+        Xo = np.zeros((K, 4, 2))
+        Xm = np.zeros((K, 4, 2))
+        prmo = np.zeros((K, 2))
+        prmm = np.zeros((K, 2))
+        W = np.zeros((K, 2, 2))
+        vq = np.zeros((K, G, 2))
+        kap = np.zeros((K, G))
+        Xe = np.zeros((K, 2, 2))
+        We = np.zeros((K, 2, 2))
+        vqe = np.zeros((K, 2))
+        vmax_s = np.zeros(K)
+        fp[:, tk.F_S0] = pc.s0
+        fp[:, tk.F_S1] = pc.s1
+        ip[:, tk.I_D0] = pc.d0
+        ip[:, tk.I_D1] = pc.d1
+        has_opp = pc.opp_body >= 0
+        has_ext = pc.ext_edge >= 0
+        flags = np.where(has_opp, tk.HAS_OPP, 0) | np.where(pc.fs, tk.ON_FS, 0) | np.where(has_ext, tk.HAS_EXT, 0)
+        transient = not ctx.static
+        c_new = 1.0 / (ctx.theta * ctx.dt) if transient else 0.0
+        for b, s in enumerate(system.solids):
+            m = np.nonzero(pc.body == b)[0]
+            if len(m) == 0:
+                continue
+            body = s.body
+            cells = s.mesh.cells[self._cell[b][pc.edge[m]]]
+            eo = self._local[b][pc.edge[m]]
+            ip[m, tk.I_EO] = eo
+            ip[m, tk.I_LAWO] = s.law
+            prmo[m] = s.prm
+            Xo[m] = s.X[cells]
+            z[m, :8] = s.U[cells].reshape(len(m), 8)
+            e = self._edges[b][pc.edge[m]]
+            edge_slots = np.column_stack([eo, (eo + 1) % 4])
+            gn = s.gnode[cells]
+            keep = np.zeros_like(gn, dtype=bool)
+            np.put_along_axis(keep, edge_slots, True, axis=1)
+            keep |= has_opp[m, None]  # the own stress of the contact side needs the whole element
+            conn[m, :4] = np.where(keep, gn, -1)
+            if transient and body.interface_velocity is None:
+                if level == "new":
+                    fp[m, tk.F_CU] = c_new
+                    W[m] = c_new * s.Un[e] + (1.0 - ctx.theta) / ctx.theta * s.Vn[e]
+                else:
+                    W[m] = -s.Vn[e]
+            vmax_s[m] = np.max(np.abs(s.Vn[e]), axis=(1, 2))
+            if body.slip_length == GAP_LAW:
+                flags[m] |= tk.SLIP_LAW
+            xg = self._gauss_points((s.X + s.U)[e], pc.s0[m], pc.s1[m])
+            t_lvl = ctx.t_new if level == "new" else ctx.t_old
+            if body.interface_velocity is not None:
+                for c in range(2):
+                    vq[m, :, c] = body.interface_velocity[c](xg[..., 0], xg[..., 1], t_lvl)
+            if isinstance(body.slip_length, Expression):
+                kv = body.slip_length(xg[..., 0], xg[..., 1], t_lvl)
+                if np.any(kv < 0):
+                    raise InputError(f"bodies.{body.name}.slip_length", body.slip_length.text,
+                                     f"a slip length κ ≥ 0 (the expression gives {kv.min():.3g})")
+                kap[m] = kv
+            elif body.slip_length != GAP_LAW:
+                kap[m] = float(body.slip_length)
+            # extension points on this body
+            me = m[has_ext[m]]
+            if len(me):
+                ee = self._edges[b][pc.ext_edge[me]]
+                Xe[me] = s.X[ee]
+                z[me, tk.OFF_EDGE:tk.OFF_EDGE + 4] = s.U[ee].reshape(len(me), 4)
+                conn[me, 16:18] = s.gnode[ee]
+                if transient and body.interface_velocity is None:
+                    if level == "new":
+                        fp[me, tk.F_CUE] = c_new
+                        We[me] = c_new * s.Un[ee] + (1.0 - ctx.theta) / ctx.theta * s.Vn[ee]
+                    else:
+                        We[me] = -s.Vn[ee]
+                if body.interface_velocity is not None:
+                    xe = (1 - pc.ext_s[me, None]) * (s.X + s.U)[ee[:, 0]] + pc.ext_s[me, None] * (s.X + s.U)[ee[:, 1]]
+                    for c in range(2):
+                        vqe[me, c] = body.interface_velocity[c](xe[:, 0], xe[:, 1], t_lvl)
+        # opposite bodies
+        for b, s in enumerate(system.solids):
+            m = np.nonzero(pc.opp_body == b)[0]
+            if len(m) == 0:
+                continue
+            cells = s.mesh.cells[self._cell[b][pc.opp_edge[m]]]
+            ip[m, tk.I_EM] = self._local[b][pc.opp_edge[m]]
+            ip[m, tk.I_LAWM] = s.law
+            prmm[m] = s.prm
+            Xm[m] = s.X[cells]
+            z[m, tk.OFF_OPP:tk.OFF_OPP + 8] = s.U[cells].reshape(len(m), 8)
+            conn[m, 4:8] = s.gnode[cells]
+        mo = np.nonzero(has_opp)[0]
+        if len(mo):
+            phi_o = np.array([self.phi[b][e] for b, e in zip(pc.body[mo], pc.edge[mo])])
+            phi_m = np.array([self.phi[b][e] for b, e in zip(pc.opp_body[mo], pc.opp_edge[mo])])
+            fp[mo, tk.F_WOWN], fp[mo, tk.F_PEN] = self._weights(phi_o, phi_m)
+        ip[:, tk.I_FLAGS] = flags
+        if f is not None:
+            g = f.grid
+            st = self.iset
+            fp[:, tk.F_KAPPA0] = st.kappa0
+            fp[:, tk.F_SLIPH] = self.slip_h
+
+            def cell_data(sel: np.ndarray, cells: np.ndarray, slot: int, off: int,
+                          cols: tuple[int, int, int, int]) -> tuple[np.ndarray, np.ndarray]:
+                """Fluid slots, cell geometry and γ^F of the pieces ``sel`` in ``cells``."""
+                nodes = g.cells[cells]
+                conn[sel, slot:slot + 4] = f.gnode[nodes]
+                z[sel, off:off + 12] = np.concatenate([f.V[nodes], f.P[nodes][..., None]], axis=2).reshape(-1, 12)
+                hx, hy = g.cell_size[cells, 0], g.cell_size[cells, 1]
+                fp[sel, cols[0]] = g.xs[g.cell_ij[cells, 0]]
+                fp[sel, cols[1]] = g.ys[g.cell_ij[cells, 1]]
+                fp[sel, cols[2]] = hx
+                fp[sel, cols[3]] = hy
+                hk = hx * hy / np.maximum(hx, hy)
+                vmax = np.maximum(np.max(np.abs(f.Vbar[nodes]), axis=(1, 2)), vmax_s[sel])
+                gam = st.gamma_n * (f.mu * st.trace_constant / hk + f.rho * vmax / 6.0)
+                if transient:
+                    gam += st.gamma_n * f.rho * hk / (12.0 * ctx.theta * ctx.dt)
+                return gam, hk
+
+            sel = np.nonzero(pc.fs)[0]
+            if len(sel):
+                gam, hk = cell_data(sel, pc.cell[sel], 8, tk.OFF_CELL, (tk.F_X0C, tk.F_Y0C, tk.F_HX, tk.F_HY))
+                fp[sel, tk.F_GAM] = gam
+                fp[sel, tk.F_AT] = hk / (st.gamma_t * st.trace_constant)
+            sel = np.nonzero(has_ext)[0]
+            if len(sel):
+                gam, _ = cell_data(sel, pc.ext_cell[sel], 12, tk.OFF_EXT, (tk.F_X0E, tk.F_Y0E, tk.F_HXE, tk.F_HYE))
+                fp[sel, tk.F_GAME] = gam
+                fp[sel, tk.F_SE] = pc.ext_s[sel]
+        return dict(z=z, conn=conn, ip=ip, fp=fp, Xo=Xo, prmo=prmo, Xm=Xm, prmm=prmm, W=W, vq=vq, kap=kap, Xe=Xe,
+                    We=We, vqe=vqe)
+
+    def _gauss_points(self, x: np.ndarray, s0: np.ndarray, s1: np.ndarray) -> np.ndarray:
+        s = s0[:, None] + (s1 - s0)[:, None] * self.gp[None, :]
+        return x[:, 0, None, :] + s[..., None] * (x[:, 1, None, :] - x[:, 0, None, :])
+
+    def _current(self, system, ctx: StepContext) -> dict:
+        """Per-piece data of the current state (gathered once per state and step)."""
+        key = (self._geometry_key(system), ctx.t_new, ctx.dt, ctx.theta,
+               *(s.U.tobytes() for s in system.solids),
+               *((system.fluid.V.tobytes(), system.fluid.P.tobytes()) if system.fluid is not None else ()))
+        if self._data_key != key:
+            self._data = self.gather(system, ctx)
+            self._data_key = key
+        return self._data
+
+    # ----------------------------------------------------------------- term interface
+    def blocks(self, system) -> list[np.ndarray]:
+        ctx = getattr(system, "ctx", None) or StepContext(0.0, 1.0, 1.0, 1.0, True)
+        return [self._current(system, ctx)["conn"]]
+
+    def _run(self, system, d: dict, asm: Assembly, weights: tuple[float, float, float], out: np.ndarray) -> None:
+        f = system.fluid
+        mu, sym = (1.0, 0.0) if f is None else (f.mu, f.sym)
+        tk.assemble_pieces(d["z"], d["ip"], d["fp"], d["Xo"], d["prmo"], d["Xm"], d["prmm"], d["W"], d["vq"],
+                           d["kap"], d["Xe"], d["We"], d["vqe"], mu, sym, self.sadj, self.variant33, *weights,
+                           self.gp, self.gw, d["conn"], asm.positions(d["conn"]), *asm.target(), out)
+
+    def begin_step(self, system, ctx: StepContext) -> None:
+        self.update_penalty(system)
+
+    def store_old_level(self, system, ctx: StepContext) -> None:
+        """θ < 1: the θ-weighted coupling terms at the converged state of ``t_old`` (this call
+        comes before anything of the new step moves), per node."""
+        self._old = None
+        if ctx.static or ctx.theta >= 1.0:
+            return
+        if system.fluid is not None:
+            system.update_cut()  # the cut of the converged state (also after a restart)
+        d = self.gather(system, ctx, level="old")
+        asm = ResidualAssembly(system.layout)
+        out = np.zeros((len(d["ip"]), len(self.gp), tk.N_OUT))
+        self._run(system, d, asm, (0.0, 1.0, 0.0), out)
+        st = system.layout.start
+        old = {f"solid{i}": asm.rhs[st[s.gnode][:, None] + np.arange(2)].copy() for i, s in enumerate(system.solids)}
+        if system.fluid is not None:
+            f = system.fluid
+            arr = np.zeros((f.grid.n_nodes, 3))
+            act = np.nonzero(f.active)[0]
+            arr[act] = asm.rhs[st[f.gnode[act]][:, None] + np.arange(3)]
+            old["fluid"] = arr
+        self._old = old
+
+    def assemble(self, system, asm: Assembly, ctx: StepContext) -> None:
+        d = self._current(system, ctx)
+        out = np.zeros((len(d["ip"]), len(self.gp), tk.N_OUT))
+        w_t = 1.0 if ctx.static else ctx.theta
+        self._run(system, d, asm, (1.0, w_t, 1.0), out)
+        self.out = out
+        self._out_body = self.pieces(system).body
+        if self._old is not None:
+            st = asm.layout.start
+            c = 1.0 - ctx.theta
+            for i, s in enumerate(system.solids):
+                asm.rhs[st[s.gnode][:, None] + np.arange(2)] += c * self._old[f"solid{i}"]
+            if system.fluid is not None:
+                f = system.fluid
+                act = np.nonzero(f.active)[0]
+                asm.rhs[st[f.gnode[act]][:, None] + np.arange(3)] += c * self._old["fluid"][act]
+
+    # ----------------------------------------------------------------- post-processing
+    def samples(self) -> tuple[np.ndarray, np.ndarray]:
+        """Gauss-point data of the last assembly ``(K, G, N_OUT)`` (columns ``traction.O_*``) and
+        the body of every piece."""
+        return self.out, self._out_body
+
+    def loads(self, system, about: np.ndarray | None = None) -> np.ndarray:
+        """Force and moment of the interface traction on each body, ``(n_bodies, 3)``: ∫_Γ σ_Γ ds and
+        ∫_Γ (x − about) × σ_Γ ds (traction form, last assembly)."""
+        out, body = self.samples()
+        res = np.zeros((len(system.solids), 3))
+        if len(out) == 0:
+            return res
+        r0 = np.zeros(2) if about is None else np.asarray(about, float)
+        w = out[..., tk.O_W]
+        tx, ty = out[..., tk.O_TX], out[..., tk.O_TY]
+        rx, ry = out[..., tk.O_X] - r0[0], out[..., tk.O_Y] - r0[1]
+        per = np.column_stack([(w * tx).sum(1), (w * ty).sum(1), (w * (rx * ty - ry * tx)).sum(1)])
+        np.add.at(res, body, per)
+        return res
+
+    def case_counts(self) -> dict[str, int]:
+        """Number of interface Gauss points in each case I-IV (last assembly)."""
+        c = self.out[..., tk.O_CASE].ravel()
+        return {f"case_{n}": int(np.sum(c == k + 1)) for k, n in enumerate(CASE_NAMES)}
+
+    def body_summary(self, system, b: int) -> dict[str, float]:
+        """Interface force on body ``b`` split into the FSI part (case I) and the contact part
+        (cases II-IV), the length of its Γ^SC and of its C ≤ 0 part."""
+        out, body = self.samples()
+        sel = out[body == b]
+        w = sel[..., tk.O_W]
+        case = sel[..., tk.O_CASE]
+        fsi = case == tk.CASE_I
+        res = {}
+        for name, mask in (("fsi", fsi), ("contact", ~fsi & (case > 0))):
+            res[f"force_{name}_x"] = float(np.sum((w * sel[..., tk.O_TX])[mask]))
+            res[f"force_{name}_y"] = float(np.sum((w * sel[..., tk.O_TY])[mask]))
+        res["length_sc"] = float(np.sum(w[(case == tk.CASE_II) | (case == tk.CASE_IV)]))
+        res["length_contact"] = float(np.sum(w[(case == tk.CASE_II) | (case == tk.CASE_III)]))
+        return res
+
+    def profile(self, body_name: str) -> np.ndarray:
+        """Contact traction along a body's surface from its own pass (pieces that see an opposite
+        surface): rows (x, y, pressure = −σ_nn of the contact branch, gap, active, weight, n_x,
+        n_y), sorted by x."""
+        if body_name not in self.names:
+            return np.zeros((0, 8))
+        out, body = self.samples()
+        sel = out[body == self.names.index(body_name)].reshape(-1, tk.N_OUT)
+        sel = sel[np.isfinite(sel[:, tk.O_GAP])]
+        if len(sel) == 0:
+            return np.zeros((0, 8))
+        active = (sel[:, tk.O_CASE] == tk.CASE_II) | (sel[:, tk.O_CASE] == tk.CASE_III)
+        a = np.column_stack([sel[:, tk.O_X], sel[:, tk.O_Y], -sel[:, tk.O_TN_CON], sel[:, tk.O_GAP],
+                             active.astype(float), sel[:, tk.O_W], sel[:, tk.O_NX], sel[:, tk.O_NY]])
+        return a[np.argsort(a[:, 0], kind="stable")]
+
+    def output_meshes(self, system):
+        """The interface Gauss points as a vertex cloud with body, case (1-4), gap, κ, the
+        traction vector and its normal FSI and contact parts."""
+        import meshio
+
+        out, body = self.samples()
+        if len(out) == 0:
+            return []
+        pts = out.reshape(-1, tk.N_OUT)
+        bod = np.repeat(body, len(self.gp))
+        P = np.column_stack([pts[:, tk.O_X], pts[:, tk.O_Y], np.zeros(len(pts))])
+        gap = np.where(np.isfinite(pts[:, tk.O_GAP]), pts[:, tk.O_GAP], -1.0)
+        kappa = np.where(np.isfinite(pts[:, tk.O_KAPPA]), pts[:, tk.O_KAPPA], -1.0)
+        mesh = meshio.Mesh(P, [("vertex", np.arange(len(P))[:, None])],
+                           point_data={"body": bod.astype(np.int32), "case": pts[:, tk.O_CASE].astype(np.int32),
+                                       "gap": gap, "kappa": kappa,
+                                       "traction": np.column_stack([pts[:, tk.O_TX], pts[:, tk.O_TY], np.zeros(len(P))]),
+                                       "traction_n_fsi": pts[:, tk.O_TN_FSI], "traction_n_contact": pts[:, tk.O_TN_CON]})
+        return [("interface", mesh)]

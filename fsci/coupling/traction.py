@@ -1,0 +1,393 @@
+"""The interface traction of every body-boundary point (FORMULATION §4.4-4.6; paper (27)-(40)).
+
+One kernel serves plain FSI, dry contact and fluid-structure-contact: at every Gauss point of a
+piece of a body's coupling boundary (straight, own outward normal ``n``) it evaluates both
+branches of the normal traction (27)
+
+    F  = σ^F_nn + γ^F v^rel_n        (FSI side; on Γ^SC the extended values, §4.6)
+    Cc = σ̃^S_nn + γ^S g_n            (contact side; +∞ without an opposite surface)
+    C  = Cc − F                      (29): C ≤ 0 → contact branch
+
+and adds the contributions of the point's case
+
+    I   (Γ^FS, C > 0):  (δv − δu, F n) + (δp n − 2μ ε(δv) n, v^rel_n n)              (31), (28)
+    II  (Γ^SC, C ≤ 0):  (−δu, Cc n)                                                 (32)
+    III (Γ^FS, C ≤ 0):  Remark 6 (35): fluid rows as I, solid rows as II (default);
+                        original (33): (δv − δu, Cc n), no mass/adjoint term
+    IV  (Γ^SC, C > 0):  (−δu, F_e n), F_e the extended FSI side                      (34)
+
+plus, on Γ^FS in every case, the tangential Navier-slip traction (37)-(39) with the slip
+length κ of the body, or of the gap law (40) ``κ = κ0 h (h/g_n − 1)`` for ``0 < g_n < h``
+(0 beyond h, ∞ for ``g_n ≤ 0``). With ``a = h_K/(γ0^t C_T)``::
+
+    σ_t = bet (t_F)_t + lam (v_rel)_t,   lam = μ/(κ + a),  bet = a/(κ + a),  eta = a κ/((κ + a) μ)
+    fluid adjoint: + s_adj (μ(∇δv + s ∇δvᵀ) n, v^rel_n n + bet (v_rel)_t − eta (t_F)_t)
+
+Time levels (one-step-θ, FORMULATION §5.1): the fluid pressure is the implicit (n+θ) pressure of
+the bulk, so it enters with weight ``w_p`` = 1; the viscous traction, the penalties, the contact
+stress and the adjoint terms are θ-weighted like the bulk viscous and solid internal forces
+(weight ``w_t``); the mass-conservation rows with weight ``w_c`` = 1. The old level is the same
+residual evaluated with ``(w_p, w_t, w_c) = (0, 1, 0)`` at the converged state of the previous step
+(see :mod:`fsci.coupling.term`). The case is decided on the unweighted values of the level.
+
+Local unknowns of a piece (``N_LOCAL`` = 44, absent slots are skipped):
+``[own element u (8) | opposite element u (8) | fluid cell (v_x, v_y, p) × 4 | extension cell × 4 |
+extension edge u (4)]``. The Jacobian is the exact derivative by complex step over the live slots,
+including the motion of the split points (Remark 9), g_n, x̌, n, σ̌, κ(g_n) and the extended
+values' dependence on the transition cell and edge; the piece's parameter range on a fluid-cell
+split and the transition point's parameter are frozen with the cut (docs/architecture.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from fsci.fem.q1 import q1_physical_gradients, q1_shape
+from fsci.fem.sparse import add_local
+from fsci.physics.materials import cauchy_stress
+
+CS_STEP = 1e-30  # complex-step size
+CORNERS = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+
+N_LOCAL = 44  # local unknowns of a piece
+N_SLOTS = 18  # node slots: own element 4, opposite element 4, fluid cell 4, extension cell 4, extension edge 2
+OFF_OPP, OFF_CELL, OFF_EXT, OFF_EDGE = 8, 16, 28, 40
+
+# flags (bit field per piece)
+HAS_OPP, ON_FS, HAS_EXT, SLIP_LAW, HAS_FLUID = 1, 2, 4, 8, 16
+# integer data per piece
+I_EO, I_LAWO, I_EM, I_LAWM, I_D0, I_D1, I_FLAGS = range(7)
+N_INT = 7
+# float data per piece
+(F_WOWN, F_PEN, F_S0, F_S1, F_CU, F_GAM, F_AT, F_X0C, F_Y0C, F_HX, F_HY, F_SE, F_CUE, F_GAME, F_X0E, F_Y0E,
+ F_HXE, F_HYE, F_KAPPA0, F_SLIPH) = range(20)
+N_FLT = 20
+# columns of the per-Gauss-point output
+(O_X, O_Y, O_CASE, O_GAP, O_F, O_CC, O_KAPPA, O_W, O_NX, O_NY, O_TX, O_TY, O_TN_FSI, O_TN_CON) = range(14)
+N_OUT = 14
+CASE_I, CASE_II, CASE_III, CASE_IV = 1, 2, 3, 4
+
+
+@njit(cache=True)
+def _stress_nn(Xe, ue, law, prm, r, s, n0, n1):
+    """n·σ·n of a Q1 solid element (reference coordinates Xe, displacements ue) at local (r, s)."""
+    N = np.empty(4, dtype=ue.dtype)
+    dN = np.empty((4, 2), dtype=ue.dtype)
+    dNx = np.empty((4, 2), dtype=ue.dtype)
+    q1_shape(r, s, N, dN)
+    q1_physical_gradients(Xe, dN, dNx)
+    F = np.empty((2, 2), dtype=ue.dtype)
+    for i in range(2):
+        for j in range(2):
+            F[i, j] = (1.0 if i == j else 0.0) + 0.0 * dNx[0, 0]
+            for a in range(4):
+                F[i, j] += ue[a, i] * dNx[a, j]
+    sig = np.empty((2, 2), dtype=ue.dtype)
+    cauchy_stress(law, prm, F, sig)
+    return n0 * (sig[0, 0] * n0 + sig[0, 1] * n1) + n1 * (sig[1, 0] * n0 + sig[1, 1] * n1)
+
+
+@njit(cache=True, inline="always")
+def _piece_end(d, s_fixed, A0, A1, t0, t1, L2, P0, P1, Q0, Q1):
+    """End of a piece: fixed (d < 0) or the orthogonal projection of opposite node d (Remark 9)."""
+    if d < 0:
+        return s_fixed + 0.0 * A0
+    if d == 0:
+        return ((P0 - A0) * t0 + (P1 - A1) * t1) / L2
+    return ((Q0 - A0) * t0 + (Q1 - A1) * t1) / L2
+
+
+@njit(cache=True)
+def _fluid_at(z, off, x, y, x0c, y0c, hx, hy, mu, sym, n0, n1, N, dN):
+    """Fluid velocity, pressure and traction t_F = σ^F n of cell slots ``z[off:off+12]`` at (x, y).
+
+    Returns (v0, v1, p, t0, t1, tv0, tv1) with ``tv`` the viscous part of the traction; fills
+    ``N``/``dN`` (reference derivatives) for the test functions."""
+    q1_shape(2.0 * (x - x0c) / hx - 1.0, 2.0 * (y - y0c) / hy - 1.0, N, dN)
+    zero = 0.0 * z[0]
+    v0 = zero
+    v1 = zero
+    p = zero
+    g00 = zero
+    g01 = zero
+    g10 = zero
+    g11 = zero
+    for A in range(4):
+        dxA = dN[A, 0] * 2.0 / hx
+        dyA = dN[A, 1] * 2.0 / hy
+        VA0 = z[off + 3 * A]
+        VA1 = z[off + 1 + 3 * A]
+        v0 += N[A] * VA0
+        v1 += N[A] * VA1
+        p += N[A] * z[off + 2 + 3 * A]
+        g00 += VA0 * dxA
+        g01 += VA0 * dyA
+        g10 += VA1 * dxA
+        g11 += VA1 * dyA
+    tv0 = mu * ((g00 + sym * g00) * n0 + (g01 + sym * g10) * n1)
+    tv1 = mu * ((g10 + sym * g01) * n0 + (g11 + sym * g11) * n1)
+    return v0, v1, p, tv0 - p * n0, tv1 - p * n1, tv0, tv1
+
+
+@njit(cache=True)
+def piece_residual(z, r, out, ip, fp, Xo, prmo, Xm, prmm, W, vq, kap, Xe, We, vqe, mu, sym, sadj, variant33,
+                   w_p, w_t, w_c, gp, gw):
+    """Residual ``r[N_LOCAL]`` of one piece at local unknowns ``z`` (real or complex).
+
+    ``out[g]`` receives the real parts of the point data (columns ``O_*``). Returns True if the
+    piece contributes anything (a dry piece out of contact does not)."""
+    for k in range(N_LOCAL):
+        r[k] = 0.0 * z[0]
+    flags = ip[I_FLAGS]
+    has_opp = (flags & HAS_OPP) != 0
+    on_fs = (flags & ON_FS) != 0
+    has_ext = (flags & HAS_EXT) != 0
+    slip_law = (flags & SLIP_LAW) != 0
+    eo = ip[I_EO]
+    ia = eo
+    ib = (eo + 1) % 4
+    uo = np.empty((4, 2), dtype=z.dtype)
+    um = np.empty((4, 2), dtype=z.dtype)
+    for a in range(4):
+        for i in range(2):
+            uo[a, i] = z[2 * a + i]
+            um[a, i] = z[OFF_OPP + 2 * a + i]
+    A0 = Xo[ia, 0] + uo[ia, 0]
+    A1 = Xo[ia, 1] + uo[ia, 1]
+    t0 = Xo[ib, 0] + uo[ib, 0] - A0
+    t1 = Xo[ib, 1] + uo[ib, 1] - A1
+    L2 = t0 * t0 + t1 * t1
+    L = np.sqrt(L2)
+    n0 = t1 / L
+    n1 = -t0 / L
+    ja = ip[I_EM]
+    jb = (ja + 1) % 4
+    P0 = Xm[ja, 0] + um[ja, 0]
+    P1 = Xm[ja, 1] + um[ja, 1]
+    Q0 = Xm[jb, 0] + um[jb, 0]
+    Q1 = Xm[jb, 1] + um[jb, 1]
+    if has_opp:
+        sa = _piece_end(ip[I_D0], fp[F_S0], A0, A1, t0, t1, L2, P0, P1, Q0, Q1)
+        sb = _piece_end(ip[I_D1], fp[F_S1], A0, A1, t0, t1, L2, P0, P1, Q0, Q1)
+    else:
+        sa = fp[F_S0] + 0.0 * A0
+        sb = fp[F_S1] + 0.0 * A0
+    e0 = Q0 - P0
+    e1 = Q1 - P1
+    det = -e0 * n1 + n0 * e1
+    w_own = fp[F_WOWN]
+    pen = fp[F_PEN]
+    cu = fp[F_CU]
+    gam = fp[F_GAM]
+    a_t = fp[F_AT]
+    N = np.empty(4, dtype=z.dtype)
+    dN = np.empty((4, 2), dtype=z.dtype)
+    # extended FSI side (§4.6): scalar values at the transition point, constant in the piece
+    Fe = 0.0 * z[0]
+    Fe_applied = 0.0 * z[0]
+    if has_ext:
+        se = fp[F_SE]
+        ea0 = Xe[0, 0] + z[OFF_EDGE]
+        ea1 = Xe[0, 1] + z[OFF_EDGE + 1]
+        et0 = Xe[1, 0] + z[OFF_EDGE + 2] - ea0
+        et1 = Xe[1, 1] + z[OFF_EDGE + 3] - ea1
+        eL = np.sqrt(et0 * et0 + et1 * et1)
+        m0 = et1 / eL
+        m1 = -et0 / eL
+        xe = ea0 + se * et0
+        ye = ea1 + se * et1
+        ve0, ve1, pe, te0, te1, tve0, tve1 = _fluid_at(z, OFF_EXT, xe, ye, fp[F_X0E], fp[F_Y0E], fp[F_HXE],
+                                                       fp[F_HYE], mu, sym, m0, m1, N, dN)
+        cue = fp[F_CUE]
+        vse0 = (1.0 - se) * (cue * z[OFF_EDGE] - We[0, 0]) + se * (cue * z[OFF_EDGE + 2] - We[1, 0]) + vqe[0]
+        vse1 = (1.0 - se) * (cue * z[OFF_EDGE + 1] - We[0, 1]) + se * (cue * z[OFF_EDGE + 3] - We[1, 1]) + vqe[1]
+        vrne = (ve0 - vse0) * m0 + (ve1 - vse1) * m1
+        visc_e = tve0 * m0 + tve1 * m1
+        game = fp[F_GAME]
+        Fe = -pe + visc_e + game * vrne
+        Fe_applied = -w_p * pe + w_t * (visc_e + game * vrne)
+    contributes = False
+    for g in range(len(gp)):
+        s = sa + (sb - sa) * gp[g]
+        w = gw[g] * (sb - sa) * L
+        x0 = A0 + s * t0
+        x1 = A1 + s * t1
+        Na = 1.0 - s
+        Nb = s
+        # ------------------------------------------------ contact side of (27)
+        gap = 0.0 * z[0]
+        Cc = 0.0 * z[0]
+        if has_opp:
+            w0 = x0 - P0
+            w1 = x1 - P1
+            eta = (-w0 * n1 + n0 * w1) / det
+            gap = (e0 * w1 - e1 * w0) / det
+            ro = (1.0 - s) * CORNERS[ia, 0] + s * CORNERS[ib, 0]
+            so_ = (1.0 - s) * CORNERS[ia, 1] + s * CORNERS[ib, 1]
+            rm = (1.0 - eta) * CORNERS[ja, 0] + eta * CORNERS[jb, 0]
+            sm = (1.0 - eta) * CORNERS[ja, 1] + eta * CORNERS[jb, 1]
+            snn = 0.0 * z[0]
+            if w_own > 0.0:
+                snn += w_own * _stress_nn(Xo, uo, ip[I_LAWO], prmo, ro, so_, n0, n1)
+            if w_own < 1.0:
+                snn += (1.0 - w_own) * _stress_nn(Xm, um, ip[I_LAWM], prmm, rm, sm, n0, n1)
+            Cc = snn + pen * gap
+        # ------------------------------------------------ FSI side of (27)
+        F = 0.0 * z[0]
+        F_applied = 0.0 * z[0]
+        vrn = 0.0 * z[0]
+        tt0 = 0.0 * z[0]
+        tt1 = 0.0 * z[0]
+        vt0 = 0.0 * z[0]
+        vt1 = 0.0 * z[0]
+        if on_fs:
+            v0, v1, p, tf0, tf1, tv0, tv1 = _fluid_at(z, OFF_CELL, x0, x1, fp[F_X0C], fp[F_Y0C], fp[F_HX], fp[F_HY],
+                                                      mu, sym, n0, n1, N, dN)
+            vs0 = Na * (cu * uo[ia, 0] - W[0, 0]) + Nb * (cu * uo[ib, 0] - W[1, 0]) + vq[g, 0]
+            vs1 = Na * (cu * uo[ia, 1] - W[0, 1]) + Nb * (cu * uo[ib, 1] - W[1, 1]) + vq[g, 1]
+            vr0 = v0 - vs0
+            vr1 = v1 - vs1
+            vrn = vr0 * n0 + vr1 * n1
+            visc = tv0 * n0 + tv1 * n1
+            tnn = tf0 * n0 + tf1 * n1
+            tt0 = tf0 - tnn * n0
+            tt1 = tf1 - tnn * n1
+            vt0 = vr0 - vrn * n0
+            vt1 = vr1 - vrn * n1
+            F = -p + visc + gam * vrn
+            F_applied = -w_p * p + w_t * (visc + gam * vrn)
+        elif has_ext:
+            F = Fe
+            F_applied = Fe_applied
+        contact = has_opp and (Cc.real - F.real <= 0.0)  # C = 0 (touching, unloaded) keeps bodies supported
+        # ------------------------------------------------ tangential: Navier slip (37), law (40)
+        lam = 0.0 * z[0]
+        bet = 0.0 * z[0]
+        eta_s = 0.0 * z[0]
+        kappa_out = 0.0
+        if on_fs:
+            kg = 0.0 * z[0] + kap[g]
+            free = np.isinf(kap[g])
+            if slip_law:
+                h = fp[F_SLIPH]
+                if not has_opp or gap.real >= h:
+                    kg = 0.0 * z[0]
+                    free = False
+                elif gap.real > 0.0:
+                    kg = fp[F_KAPPA0] * h * (h / gap - 1.0)
+                    free = False
+                else:
+                    free = True
+            if free:
+                eta_s = eta_s + a_t / mu
+                kappa_out = np.inf
+            else:
+                lam = mu / (kg + a_t)
+                bet = a_t / (kg + a_t)
+                eta_s = a_t * kg / ((kg + a_t) * mu)
+                kappa_out = kg.real
+        st0 = w_t * (bet * tt0 + lam * vt0)
+        st1 = w_t * (bet * tt1 + lam * vt1)
+        # ------------------------------------------------ normal traction on the solid, by case
+        if contact:
+            sn_solid = w_t * Cc
+            case = CASE_III if on_fs else CASE_II
+        else:
+            sn_solid = F_applied
+            case = CASE_I if on_fs else CASE_IV
+        active = on_fs or contact or has_ext
+        if active:
+            contributes = True
+            ts0 = sn_solid * n0 + st0
+            ts1 = sn_solid * n1 + st1
+            r[2 * ia] -= w * Na * ts0
+            r[2 * ia + 1] -= w * Na * ts1
+            r[2 * ib] -= w * Nb * ts0
+            r[2 * ib + 1] -= w * Nb * ts1
+        # ------------------------------------------------ fluid rows (Γ^FS only: (24))
+        if on_fs:
+            orig33 = contact and variant33
+            sn_fluid = w_t * Cc if orig33 else F_applied
+            tfl0 = sn_fluid * n0 + st0
+            tfl1 = sn_fluid * n1 + st1
+            mass = 0.0 if orig33 else 1.0
+            ad0 = bet * vt0 - eta_s * tt0
+            ad1 = bet * vt1 - eta_s * tt1
+            for A in range(4):
+                dxA = dN[A, 0] * 2.0 / fp[F_HX]
+                dyA = dN[A, 1] * 2.0 / fp[F_HY]
+                gn = dxA * n0 + dyA * n1
+                gad = dxA * ad0 + dyA * ad1
+                # test function dv = N_A e_i:  mu (grad dv + s grad dv^T) n = mu (gn e_i + s n_i grad N_A)
+                adj0 = sadj * mu * w_t * (mass * gn * n0 * (1.0 + sym) * vrn + gn * ad0 + sym * n0 * gad)
+                adj1 = sadj * mu * w_t * (mass * gn * n1 * (1.0 + sym) * vrn + gn * ad1 + sym * n1 * gad)
+                r[OFF_CELL + 3 * A] += w * (N[A] * tfl0 + adj0)
+                r[OFF_CELL + 1 + 3 * A] += w * (N[A] * tfl1 + adj1)
+                r[OFF_CELL + 2 + 3 * A] += w * w_c * mass * N[A] * vrn
+        out[g, O_X] = x0.real
+        out[g, O_Y] = x1.real
+        out[g, O_CASE] = case
+        out[g, O_GAP] = gap.real if has_opp else np.inf
+        out[g, O_F] = F.real
+        out[g, O_CC] = Cc.real if has_opp else np.inf
+        out[g, O_KAPPA] = kappa_out
+        out[g, O_W] = w.real
+        out[g, O_NX] = n0.real
+        out[g, O_NY] = n1.real
+        # reported traction on the solid: the unweighted values of this level
+        rep_n = (Cc.real if contact else F.real) if active else 0.0
+        rep_t0 = (bet * tt0 + lam * vt0).real
+        rep_t1 = (bet * tt1 + lam * vt1).real
+        out[g, O_TX] = rep_n * n0.real + rep_t0
+        out[g, O_TY] = rep_n * n1.real + rep_t1
+        out[g, O_TN_FSI] = 0.0 if contact else rep_n
+        out[g, O_TN_CON] = rep_n if contact else 0.0
+    return contributes
+
+
+_SLOT_OFFSET = np.array([0, 2, 4, 6, 8, 10, 12, 14, 16, 19, 22, 25, 28, 31, 34, 37, 40, 42])
+_SLOT_NDOF = np.array([2, 2, 2, 2, 2, 2, 2, 2, 3, 3, 3, 3, 3, 3, 3, 3, 2, 2])
+
+
+@njit(cache=True)
+def assemble_pieces(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_all, vq_all, kap_all, Xe_all,
+                    We_all, vqe_all, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw, conn, pos, data, rhs, row_base,
+                    row_len, start, ndof, want_matrix, out_all):
+    """Add every piece: its residual and the complex-step Jacobian over its local unknowns.
+
+    ``conn[k]`` holds the global nodes of the ``N_SLOTS`` node slots (-1: slot absent); local
+    rows and columns are compacted to the present slots before :func:`add_local`."""
+    r = np.empty(N_LOCAL)
+    rc = np.empty(N_LOCAL, dtype=np.complex128)
+    zc = np.empty(N_LOCAL, dtype=np.complex128)
+    dummy = np.empty((len(gp), N_OUT))
+    idx = np.empty(N_LOCAL, dtype=np.int64)
+    for k in range(len(ip_all)):
+        z = z_all[k]
+        used = piece_residual(z, r, out_all[k], ip_all[k], fp_all[k], Xo_all[k], prmo_all[k], Xm_all[k],
+                              prmm_all[k], W_all[k], vq_all[k], kap_all[k], Xe_all[k], We_all[k], vqe_all[k], mu,
+                              sym, sadj, variant33, w_p, w_t, w_c, gp, gw)
+        if not used:
+            continue
+        m = 0
+        for slot in range(N_SLOTS):
+            if conn[k, slot] >= 0:
+                for c in range(_SLOT_NDOF[slot]):
+                    idx[m] = _SLOT_OFFSET[slot] + c
+                    m += 1
+        Re = np.empty(m)
+        Ke = np.zeros((m, m))
+        for i in range(m):
+            Re[i] = r[idx[i]]
+        if want_matrix:
+            for jj in range(m):
+                for l in range(N_LOCAL):
+                    zc[l] = z[l]
+                zc[idx[jj]] += 1j * CS_STEP
+                piece_residual(zc, rc, dummy, ip_all[k], fp_all[k], Xo_all[k], prmo_all[k], Xm_all[k], prmm_all[k],
+                               W_all[k], vq_all[k], kap_all[k], Xe_all[k], We_all[k], vqe_all[k], mu, sym, sadj,
+                               variant33, w_p, w_t, w_c, gp, gw)
+                for ii in range(m):
+                    Ke[ii, jj] = rc[idx[ii]].imag / CS_STEP
+        add_local(data, rhs, row_base, row_len, start, ndof, conn[k], pos[k], Ke, Re, want_matrix)
