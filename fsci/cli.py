@@ -36,9 +36,11 @@ def _to_toml(case: dict[str, Any]) -> str:
 
 
 def cmd_list(args) -> int:
+    """One line per built-in case: name, wall time of its default run (2 cores), description."""
     width = max(len(n) for n in CASES)
-    for name, (desc, _) in CASES.items():
-        print(f"{name:<{width}}  {desc}")
+    time_width = max(len(c.wall_time) for c in CASES.values())
+    for name, case in CASES.items():
+        print(f"{name:<{width}}  {case.wall_time:>{time_width}}  {case.description}")
     return 0
 
 
@@ -86,14 +88,30 @@ def _run_and_report(sim, out: Path) -> int:
         print(f"fsci: interrupted at t = {sim.t:.6g}; checkpoint and results so far are in {out} "
               f"(continue with: fsci resume {out})", file=sys.stderr)
         return 130
-    _report(res, out)
+    note = _record_verification(sim.problem, res, out)
+    _report(res, out, note)
     return 0
 
 
-def _report(res: dict[str, Any], out: Path) -> None:
+def _record_verification(problem, res: dict[str, Any], out: Path) -> str | None:
+    """Add ``verification`` (verified_at, differing parameters, note) to results.json when the
+    case declares ``verified_at``; returns the note for an unverified setting."""
+    v = problem.verification
+    if v is None:
+        return None
+    note = v.note()
+    res["verification"] = {"verified_at": v.verified_at, "differs": v.differs, "verified": note is None,
+                           "note": note}
+    (out / "results.json").write_text(json.dumps(res, indent=2) + "\n")
+    return note
+
+
+def _report(res: dict[str, Any], out: Path, note: str | None = None) -> None:
     scalars = {k: v for k, v in res.items() if isinstance(v, (int, float))}
     for k, v in scalars.items():
         print(f"  {k} = {v:.6g}")
+    if note is not None:
+        print(f"  {note}")
     for c in res.get("reference_checks", []):
         status = "ok" if c["pass"] else "FAIL"
         err = "n/a" if c["rel_error"] is None else f"{100 * c['rel_error']:.3f} %"

@@ -1,32 +1,51 @@
 """Built-in cases. Each is a case dictionary (exactly what ``fsci show CASE`` prints as TOML)
-built by a function in one of the modules below; ``CASES`` maps the name to a one-line
-description and the builder."""
+built by a function in one of the modules below; ``CASES`` maps the name to a
+:class:`BuiltinCase`: a one-line description, the builder and the wall time of the default
+run (``fsci run CASE``, no overrides) measured on 2 cores, shown by ``fsci list``.
+
+A case with ``[[reference]]`` checks also has ``verified_at``: the parameter values at which
+those checks are verified (equal to its default ``parameters``; ``tests/test_cases.py``
+asserts both and runs every such default against its references).
+"""
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any, Callable, NamedTuple
 
 from fsci.cases import cavity, contact_cases, dfg, moving_cylinder, sinking_disk, stamp, turek_hron
 
-CASES: dict[str, tuple[str, Callable[[], dict[str, Any]]]] = {
-    "turek-hron-csm1": ("Turek-Hron CSM1: elastic bar under gravity, static (St. Venant-Kirchhoff)", turek_hron.csm1),
-    "turek-hron-csm3": ("Turek-Hron CSM3: elastic bar released under gravity, dynamic", turek_hron.csm3),
-    "turek-hron-fsi1": ("Turek-Hron FSI1: elastic bar behind a cylinder, steady, both embedded (CutFEM)",
-                        turek_hron.fsi1),
-    "stamp-falling": ("Paper Sec. 4.1: rounded elastic stamp falling onto a rigid slab (until just before contact)",
-                      stamp.stamp_falling),
-    "sinking-disk": ("Elastic disk sinking under gravity in quiescent fluid (monolithic FSI)",
-                     sinking_disk.sinking_disk),
-    "hertz": ("Hertz contact of a cylinder on a rigid flat (dry Nitsche contact)", contact_cases.hertz),
-    "two-blocks": ("Two Neo-Hookean blocks pressed together to large strain and released (dry contact)",
-                   contact_cases.two_blocks),
-    "cavity": ("Lid-driven cavity, steady Navier-Stokes (--set re=100|1000)", cavity.cavity),
-    "dfg-2d-1": ("DFG 2D-1 flow around a cylinder (Re 20), cylinder embedded (CutFEM)", dfg.dfg_2d_1),
-    "moving-cylinder": ("Cylinder with prescribed oscillation and pulsation, mass balance (45)-(46)",
-                        moving_cylinder.moving_cylinder),
+
+class BuiltinCase(NamedTuple):
+    """A built-in case: description, builder, wall time of its default run on 2 cores."""
+
+    description: str
+    build: Callable[[], dict[str, Any]]
+    wall_time: str
+
+
+CASES: dict[str, BuiltinCase] = {
+    "turek-hron-csm1": BuiltinCase("Turek-Hron CSM1: elastic bar under gravity, static (St. Venant-Kirchhoff)",
+                                   turek_hron.csm1, "~6 s"),
+    "turek-hron-csm3": BuiltinCase("Turek-Hron CSM3: elastic bar released under gravity, dynamic",
+                                   turek_hron.csm3, "~25 s"),
+    "turek-hron-fsi1": BuiltinCase("Turek-Hron FSI1: elastic bar behind a cylinder, steady, both embedded (CutFEM)",
+                                   turek_hron.fsi1, "~80 s"),
+    "stamp-falling": BuiltinCase("Paper Sec. 4.1: rounded elastic stamp falling onto a rigid slab (until just "
+                                 "before contact)", stamp.stamp_falling, "~10 min"),
+    "sinking-disk": BuiltinCase("Elastic disk sinking under gravity in quiescent fluid (monolithic FSI)",
+                                sinking_disk.sinking_disk, "~45 s"),
+    "hertz": BuiltinCase("Hertz contact of a cylinder on a rigid flat (dry Nitsche contact)",
+                         contact_cases.hertz, "~7 s"),
+    "two-blocks": BuiltinCase("Two Neo-Hookean blocks pressed together to large strain and released (dry contact)",
+                              contact_cases.two_blocks, "~7 s"),
+    "cavity": BuiltinCase("Lid-driven cavity, steady Navier-Stokes (--set re=100|1000)", cavity.cavity, "~15 s"),
+    "dfg-2d-1": BuiltinCase("DFG 2D-1 flow around a cylinder (Re 20), cylinder embedded (CutFEM)",
+                            dfg.dfg_2d_1, "~22 s"),
+    "moving-cylinder": BuiltinCase("Cylinder with prescribed oscillation and pulsation, mass balance (45)-(46)",
+                                   moving_cylinder.moving_cylinder, "~20 s"),
 }
 
 
 def get_case(name: str) -> dict[str, Any]:
     """The case dictionary of a built-in case (a fresh copy)."""
-    return CASES[name][1]()
+    return CASES[name].build()
