@@ -2,6 +2,7 @@
 an embedded disk and the DFG 2D-1 benchmark.
 
 Usage:  python benchmarks/convergence_cutfem.py [--dfg 10 20 40 80] [--mms 8 16 32 64 128]
+                                                [--adjoint skew|symmetric]
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ def dfg(levels):
         print(f"| {n} | {sim.system.layout.n_dofs} | " + " | ".join(cells) + " |", flush=True)
 
 
-def mms(levels):
+def mms(levels, adjoint):
     fields = {
         "polynomial Stokes field (μ = 1)": ((20 * x * y ** 3, 5 * x ** 4 - 5 * y ** 4), 60 * x ** 2 * y - 20 * y ** 3, 1.0),
         "Taylor-Green field (μ = 0.1)": ((-sp.cos(2 * sp.pi * x) * sp.sin(2 * sp.pi * y),
@@ -45,9 +46,9 @@ def mms(levels):
                                          -sp.Rational(1, 4) * (sp.cos(4 * sp.pi * x) + sp.cos(4 * sp.pi * y)), 0.1),
     }
     for name, (v, p, mu) in fields.items():
-        errs = [_disk_mms(v, p, mu, n) for n in levels]
+        errs = [_disk_mms(v, p, mu, n, adjoint) for n in levels]
         hs = [1.0 / n for n in levels]
-        print(f"\n{name}\n")
+        print(f"\n{name}, {adjoint} adjoint\n")
         print("| n | ‖v−v_h‖_L2 | rate | ‖∇(v−v_h)‖ | rate | ‖p−p_h‖_L2 | rate |")
         print("|---|---|---|---|---|---|---|")
         r = {k: np.concatenate([[np.nan], rates(hs, [e[k] for e in errs])]) for k in ("v_l2", "v_h1", "p_l2")}
@@ -60,8 +61,9 @@ if __name__ == "__main__":
     ap = argparse.ArgumentParser()
     ap.add_argument("--dfg", type=int, nargs="*", default=[10, 20, 40, 80])
     ap.add_argument("--mms", type=int, nargs="*", default=[8, 16, 32, 64, 128])
+    ap.add_argument("--adjoint", choices=("skew", "symmetric"), default="skew", help="viscous adjoint of the Nitsche terms")
     a = ap.parse_args()
     if a.mms:
-        mms(a.mms)
+        mms(a.mms, a.adjoint)
     if a.dfg:
         dfg(a.dfg)

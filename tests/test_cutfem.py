@@ -60,26 +60,42 @@ def _stokes_condition(frac, gp):
 
 
 def test_ghost_penalty_keeps_the_condition_number_bounded():
+    """Fluid fractions 1e-10 … 0.9: with the ghost penalty the condition number varies by a
+    factor 2.05 (asserted 6); without it, slivers give > 1e24 (asserted > 1e12)."""
     fracs = [1e-10, 1e-8, 1e-6, 1e-4, 1e-2, 0.1, 0.5, 0.9]
     with_gp = np.array([_stokes_condition(f, True) for f in fracs])
-    assert with_gp.max() / with_gp.min() < 10.0, with_gp
+    assert with_gp.max() / with_gp.min() < 6.0, with_gp
     without = np.array([_stokes_condition(f, False) for f in fracs[:3]])
-    assert without.max() / with_gp.max() > 1e6, without
+    assert without.min() > 1e12, without
 
 
 # ----------------------------------------------------------------------------- MMS on a disk
-def _disk_mms(v, p, mu, n, rho=1.0):
+def _disk_mms(v, p, mu, n, adjoint, rho=1.0):
     ms = navier_stokes(v, p, rho, mu)
     wall = box_minus_disk(interface_velocity=ms["v_str"])
-    fluid = fluid_box(n, mu=mu, rho=rho, body_force=ms["f_str"], pressure_reference=[0.5, 0.5])
+    fluid = fluid_box(n, mu=mu, rho=rho, body_force=ms["f_str"], pressure_reference=[0.5, 0.5],
+                      interface={"adjoint": adjoint})
     sim = Simulation(problem_from_dict(static_case([wall], fluid)))
     sim.run()
     quad = _error_quadrature(sim.system)
     return fluid_errors(sim.system.fluid, ms["v"], ms["grad"], ms["p"], quad)
 
 
+# measured rates (benchmarks/convergence_cutfem.py): ‖v−v_h‖ n = 32 → 64 and 16 → 32, ‖∇(v−v_h)‖ and
+# ‖p−p_h‖ n = 32 → 64; asserted 0.2 below
+DISK_MMS_RATES = {
+    ("polynomial", "skew"): (2.20, 2.28, 1.02, 1.72),
+    ("polynomial", "symmetric"): (2.17, 2.25, 1.02, 1.69),
+    ("taylor_green", "skew"): (2.05, 2.09, 1.01, 1.84),
+    ("taylor_green", "symmetric"): (2.05, 2.09, 1.01, 1.78),
+}
+
+
+@pytest.mark.parametrize("adjoint", ["skew", "symmetric"])
 @pytest.mark.parametrize("which", ["polynomial", "taylor_green"])
-def test_embedded_disk_manufactured_rates(which):
+def test_embedded_disk_manufactured_rates(which, adjoint):
+    """Exact velocity imposed by Nitsche on the disk (skew or symmetric adjoint viscous term):
+    velocity L2 ≈ 2, H1 ≈ 1, pressure ≈ 1.7-1.8, each asserted 0.2 below its measured rate."""
     if which == "polynomial":  # VALIDATION.md 3.1 (Massing et al.); convection included
         v = (20 * x * y ** 3, 5 * x ** 4 - 5 * y ** 4)
         p = 60 * x ** 2 * y - 20 * y ** 3
@@ -89,14 +105,15 @@ def test_embedded_disk_manufactured_rates(which):
         p = -sp.Rational(1, 4) * (sp.cos(4 * sp.pi * x) + sp.cos(4 * sp.pi * y))
         mu = 0.1
     ns = (8, 16, 32, 64)
-    errs = [_disk_mms(v, p, mu, n) for n in ns]
+    errs = [_disk_mms(v, p, mu, n, adjoint) for n in ns]
     hs = [1.0 / n for n in ns]
     rv = rates(hs, [e["v_l2"] for e in errs])
     rh = rates(hs, [e["v_h1"] for e in errs])
     rp = rates(hs, [e["p_l2"] for e in errs])
-    assert rv[-1] > 1.85 and rv[-2] > 1.8, rv
-    assert rh[-1] > 0.9, rh
-    assert rp[-1] > 1.0, rp
+    v_last, v_before, h1_last, p_last = (r - 0.2 for r in DISK_MMS_RATES[which, adjoint])
+    assert rv[-1] > v_last and rv[-2] > v_before, rv
+    assert rh[-1] > h1_last, rh
+    assert rp[-1] > p_last, rp
 
 
 # ----------------------------------------------------------------------------- moments
@@ -129,14 +146,16 @@ def test_moment_on_a_spinning_cylinder_converges_to_the_exact_torque():
     ns = (16, 32, 64)
     res = [_rotating_cylinder(n) for n in ns]
     err = [abs(r["M_vol"] / exact - 1.0) for r in res]
-    assert err[-1] < 0.005 and min(rates([1.0 / n for n in ns], err)) > 1.5, err  # measured 9.1, 2.0, 0.29 %
+    # measured 9.1, 2.0, 0.29 % (rates 2.2, 2.7)
+    assert err[-1] < 0.005 and min(rates([1.0 / n for n in ns], err)) > 2.0, err
     for r in res:
         # at a converged state the volume form equals the traction form (the rotation has no
         # strain, so the adjoint term tests it with zero): a check of both implementations
         assert r["M_trac"] == pytest.approx(r["M_vol"], rel=1e-8)
         # about another point the moment shifts by (x_C − 0) × F exactly (same residual)
         assert r["M0_vol"] == pytest.approx(r["M_vol"] + CENTER[0] * r["Fy"] - CENTER[1] * r["Fx"], abs=1e-12)
-    force = [math.hypot(r["Fx"], r["Fy"]) / abs(exact) for r in res]  # exact: 0
+    # exact: 0; measured 1.4e-2, 2.1e-3, 4.0e-4
+    force = [math.hypot(r["Fx"], r["Fy"]) / abs(exact) for r in res]
     assert all(f < tol for f, tol in zip(force, (0.02, 0.005, 0.001))), force
 
 
@@ -180,14 +199,16 @@ def test_couette_with_slip_is_exact(b):
     X = f.grid.nodes[f.active]
     uex = U * (_yp(X[:, 0], X[:, 1]) + HALF + b) / (H + 2 * b)
     err = np.abs(f.V[f.active] - uex[:, None] * np.array(T)[None, :]).max()
-    assert err < 1e-9, err
-    assert np.abs(f.P[f.active] - f.P[f.active].mean()).max() < 1e-8
+    assert err < 1e-12, err  # measured ≤ 1.3e-15
+    assert np.abs(f.P[f.active] - f.P[f.active].mean()).max() < 1e-11  # measured ≤ 8.7e-14
 
 
 @pytest.mark.parametrize("kind", ["noslip", "slip", "free"])
 def test_poiseuille_with_slip_converges(kind):
     """Pressure-driven flow (body force G along the channel): κ = 0 both walls, κ = b both
-    walls, or no-slip at the bottom and free slip (κ = ∞) at the top."""
+    walls, or no-slip at the bottom and free slip (κ = ∞) at the top. Measured at n = 64:
+    L2 rate 2.04 / 2.03 / 2.03, error 4.9e-4 / 3.5e-4 / 1.6e-4 of the centre-line velocity
+    ex(HALF); asserted rate ≥ 1.83, error ≤ 3× measured."""
     G, mu, H = 1.0, 0.1, 2 * HALF
     b = 0.05
     yp = f"({_yprime_expr()} + {HALF})"  # distance from the bottom wall
@@ -214,7 +235,8 @@ def test_poiseuille_with_slip_converges(kind):
         errs.append(float(np.sqrt(np.dot(wq, np.sum((v - ve) ** 2, axis=1)))))
         hs.append(1.0 / n)
     r = rates(hs, errs)
-    assert r[-1] > 1.8 and errs[-1] < 2e-3 * ex(HALF), (errs, r)
+    tol = {"noslip": 1.5e-3, "slip": 1.1e-3, "free": 5e-4}[kind]
+    assert r[-1] > 1.83 and errs[-1] < tol * ex(HALF), (errs, r)
 
 
 # ----------------------------------------------------------------------------- Jacobian
@@ -245,13 +267,16 @@ def test_nitsche_coupling_jacobian_matches_finite_differences(adjoint, slip, the
 
 
 # ----------------------------------------------------------------------------- cases
-def test_dfg_2d_1_within_one_percent(tmp_path):
+def test_dfg_2d_1_coarse_forms_agree_and_say_coarse(tmp_path):
+    """DFG 2D-1 on n = 10: volume and traction forms of the drag agree to solver tolerance
+    (measured 1.6e-13), the interface is written, and the run says it is not the verified
+    setting. The default n = 40 (c_D, c_L, Δp within 0.015 %, 2 %, 0.4 %) runs in
+    tests/test_cases.py::test_default_run_meets_its_references."""
     out = tmp_path / "dfg"
-    assert main(["run", "dfg-2d-1", "--out", str(out)]) == 0
+    assert main(["run", "dfg-2d-1", "--set", "n=10", "--out", str(out)]) == 0
     res = json.loads((out / "results.json").read_text())
-    assert abs(res["cd"] / 5.57953523384 - 1) < 0.01
-    assert abs(res["dp"] / 0.11752016697 - 1) < 0.01
-    assert abs(res["cd_traction"] / res["cd"] - 1) < 1e-6  # volume and traction forms agree
+    assert abs(res["cd_traction"] / res["cd"] - 1) < 1e-10
+    assert not res["verification"]["verified"] and res["verification"]["differs"] == {"n": 10}
     assert (out / "vtu").exists() and list((out / "vtu").glob("interface_*.vtu"))
 
 
@@ -263,8 +288,8 @@ def test_moving_cylinder_mass_balance_at_solver_tolerance(tmp_path):
     rows = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
     phi = np.abs(rows["mass_phi_solid"]).max()
     assert phi > 0.01
-    assert np.all(rows["mass_err1"] < 1e-9 * phi)
-    assert rows["mass_err2"].max() < 0.05 * phi
+    assert np.all(rows["mass_err1"] < 1e-9 * phi)  # solver tolerance; measured 4.6e-16
+    assert rows["mass_err2"].max() < 0.026 * phi  # measured 0.88 %
     assert rows["mass_err2"].max() > 1e3 * rows["mass_err1"].max()
 
 

@@ -61,7 +61,9 @@ def _mms_case(n, ms, mu, form):
 
 @pytest.mark.parametrize("form", ["symmetric", "laplace"])
 def test_manufactured_navier_stokes_rates(form):
-    """Steady Navier-Stokes with a smooth exact solution: velocity L2 ≈ 2, H1 ≈ 1, pressure ≥ 1."""
+    """Steady Navier-Stokes with a smooth exact solution, rates n = 32 → 64 (measured, both
+    forms): velocity L2 2.03, H1 1.00, pressure L2 2.07 (superconvergent on uniform grids);
+    asserted ≈ 0.2 below."""
     v = (sp.sin(sp.pi * x) * sp.cos(sp.pi * y) + x * x, -sp.cos(sp.pi * x) * sp.sin(sp.pi * y) - 2 * x * y)
     p = sp.cos(sp.pi * x) * sp.exp(y)
     mu = 0.05
@@ -79,7 +81,7 @@ def test_manufactured_navier_stokes_rates(form):
     rp = rates(hs, [e["p_l2"] for e in errs])
     assert rv[-1] > 1.9, rv
     assert rh[-1] > 0.95, rh
-    assert rp[-1] > 1.0, rp
+    assert rp[-1] > 1.87, rp
 
 
 @pytest.mark.parametrize("theta", [None, 0.5, 0.6, 1.0])  # None: steady
