@@ -42,7 +42,8 @@ def patch_case(mesh="non-matching", law="neo_hooke", split=True, weighting="harm
 @pytest.mark.parametrize("law", ["neo_hooke", "svk"])
 def test_contact_patch_test(mesh, law):
     """Uniform pressure transmitted exactly: on both surfaces the contact pressure equals the
-    (uniform) Cauchy stress -σ_yy of the blocks to 1e-8, the gap vanishes."""
+    (uniform) Cauchy stress -σ_yy of the blocks (measured 7e-14, asserted 1e-11: the solver
+    tolerance), the gap vanishes (measured 1e-16)."""
     sim = Simulation(problem_from_dict(patch_case(mesh, law)))
     sim.run()
     term = sim.system.extra_terms[0]
@@ -51,14 +52,15 @@ def test_contact_patch_test(mesh, law):
     for name in ("lower", "upper"):
         prof = term.profile(name)
         assert np.all(prof[:, 4] > 0)
-        assert np.max(np.abs(prof[:, 2] + sigma.mean())) < 1e-8 * abs(sigma.mean())
-        assert np.max(np.abs(prof[:, 3])) < 1e-10
+        assert np.max(np.abs(prof[:, 2] + sigma.mean())) < 1e-11 * abs(sigma.mean())
+        assert np.max(np.abs(prof[:, 3])) < 1e-13
 
 
 def test_split_integration_balances_the_two_passes():
     """Remark 9: pieces split where the opposite element edges project integrate the jumping
     opposite stress exactly; fixed sub-intervals do not. Two blocks at maximum compression:
-    the contact forces of the two passes balance to 0.5 % with splitting, not without."""
+    the contact forces of the two passes balance to 0.5 % with splitting (measured 0.20 %),
+    not without (3 sub-intervals: 5.8 %)."""
     def forces(*overrides):
         case = get_case("two-blocks")
         for o in ("time.t_end=1.0",) + overrides:
@@ -109,12 +111,19 @@ def test_contact_jacobian_against_a_rigid_body():
     check_jacobian(system, ctx, x0, h=1e-8, dofs=dofs, label="hertz")
 
 
-def test_hertz_within_three_percent():
-    """Half-width and peak pressure within 3 % of Hertz (plane strain, small load)."""
-    res = Simulation(problem_from_dict(get_case("hertz"))).run()
-    assert abs(res["half_width"] / res["half_width_exact"] - 1) < 0.03
-    assert abs(res["peak_pressure"] / res["peak_pressure_exact"] - 1) < 0.03
-    assert 0.0008 < res["hertz_load"] < 0.0012
+def test_reaction_is_the_applied_load():
+    """The ``reaction`` quantity (the body's own residual summed over its prescribed dofs, used
+    as the Hertz load) on the patch test: the support under the lower block carries the
+    traction 0.01 applied over the width 2 of the upper block, through the contact. (Hertz
+    itself, with a/a_H, p0/p0_H and contact force = load, runs at its default in
+    tests/test_cases.py.)"""
+    case = patch_case()
+    case["quantities"] = [{"name": "support", "type": "reaction", "body": "lower", "boundary": "bottom",
+                           "component": 1},
+                          {"name": "support_x", "type": "reaction", "body": "lower", "boundary": "bottom"}]
+    res = Simulation(problem_from_dict(case)).run()
+    assert res["support"] == pytest.approx(0.02, rel=1e-11)
+    assert abs(res["support_x"]) < 1e-13
 
 
 def test_penetration_falls_with_the_penalty():
@@ -145,11 +154,11 @@ def test_two_blocks_unbiased_and_quadratic():
     b, sim_b, _ = _two_blocks(True)
     for ha, hb in zip(sim_a.history, sim_b.history):
         for k in ("uy_upper", "uy_lower", "ux_corner", "upper_contact_force_y", "lower_contact_force_y"):
-            assert abs(ha[k] - hb[k]) <= 1e-10 * max(1.0, abs(ha[k])), (k, ha[k], hb[k])
+            assert abs(ha[k] - hb[k]) <= 1e-12 * max(1.0, abs(ha[k])), (k, ha[k], hb[k])  # measured 3e-15
     peak = min(sim_a.history, key=lambda h: h["uy_upper"])
     assert peak["uy_upper"] < -0.15 and peak["upper_contact_force_y"] > 0.1
-    # action = reaction between the two passes
-    assert abs(peak["upper_contact_force_y"] + peak["lower_contact_force_y"]) < 0.02 * peak["upper_contact_force_y"]
+    # action = reaction between the two passes (measured 0.20 %)
+    assert abs(peak["upper_contact_force_y"] + peak["lower_contact_force_y"]) < 0.006 * peak["upper_contact_force_y"]
     # quadratic convergence at maximum compression
     r = np.array(reps[9].residuals)
     r = r[r > 1e-12]
@@ -183,8 +192,8 @@ def test_self_contact_closes_a_slot():
     assert len(upper) and len(lower)
     f_up = -np.sum(upper[:, 2] * upper[:, 5] * upper[:, 7])
     f_lo = -np.sum(lower[:, 2] * lower[:, 5] * lower[:, 7])
-    assert f_up > 0.01 and abs(f_up + f_lo) < 0.02 * f_up
-    assert res["penetration"] < 0.05 * 0.05  # below 5 % of the element size
+    assert f_up > 0.01 and abs(f_up + f_lo) < 3.2e-4 * f_up  # measured 1.06e-4
+    assert res["penetration"] < 0.05 * 0.05  # below 5 % of the element size (measured 2.0 %)
 
 
 def test_self_contact_jacobian():
