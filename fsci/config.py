@@ -35,6 +35,7 @@ from fsci.timefunc import make_time_function
 QUANTITY_KINDS = (
     "point_displacement", "body_force", "pressure_difference", "flow_rate", "oscillation",
     "centerline_profiles", "vortex_center", "mass_balance", "body_moment", "contact_profile", "hertz_exact", "reaction",
+    "interface_summary", "fluid_pieces", "event", "value",
 )
 
 
@@ -447,6 +448,8 @@ def read_fluid(t: Table) -> Fluid:
         kappa0=it.num("kappa0", 0.1, lo=0, allowed="κ0 ≥ 0"),
         slip_h=it.num("slip_h", 0.0, lo=0, allowed="h ≥ 0 (0: the largest fluid cell side)"),
         case_iii=it.str("case_iii", "remark6", choices=("remark6", "original")),
+        film_closure=it.num("film_closure", 1e-6, lo=0, hi=0.5),
+        extension=it.bool("extension", True),
     )
     it.done()
     t.done()
@@ -498,6 +501,8 @@ def read_quantity(t: Table) -> Quantity:
     name = t.str("name")
     kind = t.str("type", choices=QUANTITY_KINDS)
     params = {k: evaluate_parameter(v, t.params, t.key(k)) for k, v in t.data.items() if k not in ("name", "type")}
+    if kind == "event" and "value" in params:  # the value reported at the event: an expression in t
+        params["value"] = make_scalar(params["value"], t.params, t.key("value"))
     t.used |= set(t.data)
     return Quantity(name, kind, params)
 

@@ -80,7 +80,8 @@ class System:
         f = self.fluid
         t0 = time.perf_counter()
         outlines = self.outlines()
-        cut = CutState(f.grid, outlines, f.spec.interface.island_factor, keep_nodes=keep_nodes)
+        st = f.spec.interface
+        cut = CutState(f.grid, outlines, st.island_factor, keep_nodes=keep_nodes, film_closure=st.film_closure)
         self.timings["cut"] += time.perf_counter() - t0
         if initial:
             g = f.grid

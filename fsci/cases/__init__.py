@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any, Callable, NamedTuple
 
-from fsci.cases import cavity, contact_cases, dfg, moving_cylinder, sinking_disk, stamp, turek_hron
+from fsci.cases import cavity, contact_cases, dfg, fsci_checks, moving_cylinder, sinking_disk, stamp, turek_hron
 
 
 class BuiltinCase(NamedTuple):
@@ -43,6 +43,10 @@ CASES: dict[str, BuiltinCase] = {
                             dfg.dfg_2d_1, "~22 s"),
     "moving-cylinder": BuiltinCase("Cylinder with prescribed oscillation and pulsation, mass balance (45)-(46)",
                                    moving_cylinder.moving_cylinder, "~20 s"),
+    "lift-off": BuiltinCase("Elastic block on a slab in fluid lifts off when the ambient pressure reaches its load "
+                            "(FSCI, extension)", fsci_checks.lift_off, "~1 min"),
+    "blocks-film": BuiltinCase("Rounded block pressed through a fluid film onto another: contact forms, fluid "
+                               "splits (FSCI)", fsci_checks.blocks_film, "~1 min"),
 }
 
 

@@ -123,8 +123,10 @@ def _merge(base: tuple[np.ndarray, ...], contact: tuple[np.ndarray, ...] | None)
                 rows.append((e[k], lo, hi, -1, -1, cell[k], fs[k], -1, -1))
                 continue
             j = hit[0]
-            dl = cd0[j] if abs(lo - c0[j]) <= 1e-14 else -1
-            dh = cd1[j] if abs(hi - c1[j]) <= 1e-14 else -1
+            # ends at projected opposite nodes move with the unknowns (Remark 9), except on Γ^FS,
+            # whose pieces must tile the fluid boundary of the cut (discrete mass balance (46))
+            dl = cd0[j] if abs(lo - c0[j]) <= 1e-14 and not fs[k] else -1
+            dh = cd1[j] if abs(hi - c1[j]) <= 1e-14 and not fs[k] else -1
             rows.append((e[k], lo, hi, dl, dh, cell[k], fs[k], ob[j], oe[j]))
     return rows
 
@@ -163,7 +165,7 @@ def _extension(x: np.ndarray, edges: np.ndarray, rows: np.ndarray, scale: float)
 
 
 def build_pieces(boundaries: list[BoundaryOf], cut, radius: float, self_contact: bool = False, split: bool = True,
-                 n_fixed: int = 10) -> CouplingPieces:
+                 n_fixed: int = 10, extension: bool = True) -> CouplingPieces:
     """All coupling pieces of the current geometry (see the module docstring).
 
     Parameters
@@ -177,6 +179,8 @@ def build_pieces(boundaries: list[BoundaryOf], cut, radius: float, self_contact:
         seen (``g_n = ∞``).
     self_contact, split, n_fixed
         Contact-search options (:func:`fsci.geometry.search.find_pieces`).
+    extension
+        Give Γ^SC pieces an extension point (False: the FSI side is zero there).
     """
     base = _base_pieces(boundaries, cut)
     contact = _search(boundaries, radius, self_contact, split, n_fixed)
@@ -184,7 +188,7 @@ def build_pieces(boundaries: list[BoundaryOf], cut, radius: float, self_contact:
     for b, bd in enumerate(boundaries):
         rows = np.array(_merge(base[b], contact.get(b)), dtype=float).reshape(-1, 9)
         scale = 1.0 + float(np.max(np.abs(bd.x))) if len(bd.x) else 1.0
-        ext = _extension(bd.x, bd.edges, rows[:, [0, 1, 2, 3, 4, 5, 6]], scale) if cut is not None else \
+        ext = _extension(bd.x, bd.edges, rows[:, [0, 1, 2, 3, 4, 5, 6]], scale) if cut is not None and extension else \
             np.full((len(rows), 3), -1.0)
         fs = rows[:, 6] > 0
         has_opp = rows[:, 7] >= 0

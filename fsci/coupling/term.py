@@ -176,7 +176,8 @@ class CouplingTerm:
                    for s, e, c, l, k in zip(system.solids, self._edges, self._cell, self._local, self._contact)]
             st = self.contact
             self._pieces = build_pieces(bnd, system.cut if system.fluid is not None else None, self.radius,
-                                        st.self_contact, st.split, st.n_fixed)
+                                        st.self_contact, st.split, st.n_fixed,
+                                        self.iset is None or self.iset.extension)
             self._key = key
         return self._pieces
 

@@ -141,13 +141,17 @@ class CutState:
         Total polynomial degree integrated exactly on cut cells.
     keep_nodes
         Nodes that must stay ACTIVE (solution-space update rule, FORMULATION §5.3).
+    film_closure
+        Gaps between two different bodies thinner than ``2 film_closure × (smallest cell)`` are
+        not fluid (closed contact whose discrete gap is slightly positive; see docs).
     """
 
     def __init__(self, grid: Grid, outlines: list[Outline], island_factor: float = 2.0, quad_degree: int = 5,
-                 keep_nodes: np.ndarray | None = None) -> None:
+                 keep_nodes: np.ndarray | None = None, film_closure: float = 0.0) -> None:
         self.grid = grid
         self.outlines = outlines
         self.island_factor = island_factor
+        self.film_closure = film_closure
         self.quad_degree = quad_degree
         x0, x1, y0, y1 = grid.box
         self.box = shapely.box(x0, y0, x1, y1)
@@ -161,7 +165,7 @@ class CutState:
     def _build_region(self) -> None:
         g = self.grid
         bodies = [o.polygon for o in self.outlines]
-        solid = shapely.union_all(bodies) if bodies else shapely.Polygon()
+        solid = shapely.union_all(bodies + self._closed_films(bodies)) if bodies else shapely.Polygon()
         fluid = shapely.difference(self.box, solid)
         parts = list(shapely.get_parts(fluid)) if not fluid.is_empty else []
         keep, islands = [], []
@@ -177,6 +181,21 @@ class CutState:
         self.fluid = shapely.union_all(keep) if keep else shapely.Polygon()
         self.islands = islands
         shapely.prepare(self.fluid)
+
+    def _closed_films(self, bodies: list[shapely.Geometry]) -> list[shapely.Geometry]:
+        """Regions within δ of two different bodies: films thinner than 2δ between bodies in
+        contact, whose sign of the (tiny) discrete gap must not decide what is fluid."""
+        if self.film_closure <= 0.0 or len(bodies) < 2:
+            return []
+        g = self.grid
+        d = self.film_closure * float(min(np.diff(g.xs).min(), np.diff(g.ys).min()))
+        grown = shapely.buffer(np.array(bodies, dtype=object), d, join_style="mitre")
+        i, j = shapely.STRtree(grown).query(grown, predicate="intersects")
+        pairs = i < j
+        if not pairs.any():
+            return []
+        films = shapely.intersection(grown[i[pairs]], grown[j[pairs]])
+        return [f for f in films if not f.is_empty]
 
     def _classify_cells(self) -> None:
         g = self.grid
@@ -258,6 +277,9 @@ class CutState:
         for b, o in enumerate(self.outlines):
             all_edges.append((b, o.x[o.all_edges[:, 0]], o.x[o.all_edges[:, 1]]))
         rows = []
+        fluid_pts = np.vstack([np.asarray(r.coords) for part in shapely.get_parts(self.fluid)
+                               for r in (part.exterior, *part.interiors)]) if not self.fluid.is_empty else np.zeros((0, 2))
+        on_edge = 1e-9 * hmin
         for b, o in enumerate(self.outlines):
             a = o.x[o.edges[:, 0]]
             c = o.x[o.edges[:, 1]]
@@ -286,6 +308,18 @@ class CutState:
                     k, s = _segment_events(a[i_mine], c[i_mine], p0[i_other], p1[i_other])
                     ev_edge.append(i_mine[k])
                     ev_s.append(s)
+            # vertices of the fluid region lying on the edge: where the wetted part ends even if
+            # the other body only nearly touches (gaps of round-off size, closed films)
+            if len(fluid_pts):
+                mine = shapely.linestrings(np.stack([a, c], axis=1))
+                i_pt, i_mine = shapely.STRtree(mine).query(shapely.points(fluid_pts), predicate="dwithin",
+                                                           distance=on_edge)
+                if len(i_pt):
+                    d = c[i_mine] - a[i_mine]
+                    sp = np.einsum("ij,ij->i", fluid_pts[i_pt] - a[i_mine], d) / np.einsum("ij,ij->i", d, d)
+                    ok = (sp > 0.0) & (sp < 1.0)
+                    ev_edge.append(i_mine[ok])
+                    ev_s.append(sp[ok])
             E = np.concatenate(ev_edge)
             S = np.concatenate(ev_s)
             order = np.lexsort((S, E))

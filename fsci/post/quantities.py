@@ -30,8 +30,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import shapely
 
 from fsci.errors import InputError
+from fsci.expressions import make_scalar
 from fsci.fem.q1 import q1_eval
 from fsci.problem import Problem, Quantity
 
@@ -110,6 +112,29 @@ class QuantityEvaluator:
                                  + ", ".join(names) + ")")
         elif q.kind == "reaction":
             self._prepared[q.name] = self._prepare_reaction(q)
+        elif q.kind == "interface_summary":
+            names = [b.name for b in s.solids]
+            if q.params.get("body") not in names or not s.extra_terms:
+                raise InputError(self._field(q, "body"), q.params.get("body"), "a body with a coupling boundary ("
+                                 + ", ".join(names) + ")")
+            self._prepared[q.name] = names.index(q.params["body"])
+        elif q.kind == "fluid_pieces":
+            if s.fluid is None:
+                raise InputError(self._field(q, "type"), q.kind, "needs a [fluid] table")
+        elif q.kind == "event":
+            earlier = [x.name for x in self.problem.quantities[:self.problem.quantities.index(q)]]
+            of = q.params.get("of")
+            if not isinstance(of, str) or not (of in earlier or any(of.startswith(e + "_") for e in earlier)
+                                               or of.startswith("case_")):
+                raise InputError(self._field(q, "of"), of, "a history column of an earlier quantity")
+            if q.params.get("when") not in EVENT_KINDS:
+                raise InputError(self._field(q, "when"), q.params.get("when"), "one of " + ", ".join(EVENT_KINDS))
+            value = q.params.get("value")
+            self._prepared[q.name] = value if value is not None else make_scalar("t", {}, self._field(q, "value"))
+        elif q.kind == "value":
+            v = q.params.get("value")
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise InputError(self._field(q, "value"), v, "a number (or a parameter expression \"=...\")")
         elif q.kind == "hertz_exact":
             for key in ("R", "E", "nu"):
                 v = q.params.get(key)
@@ -160,9 +185,12 @@ class QuantityEvaluator:
 
     # ----------------------------------------------------------------- per step
     def step_values(self) -> dict[str, float]:
-        """Scalar quantities of the current state (for history.csv)."""
+        """Scalar quantities of the current state (for history.csv); with contact surfaces also
+        the number of interface points in each case I-IV."""
         out: dict[str, float] = {}
         s = self.system
+        if s.extra_terms and any(b.body.contact for b in s.solids):
+            out.update(s.extra_terms[0].case_counts())
         for q in self.problem.quantities:
             if q.kind == "point_displacement":
                 solid, nodes, N, comp = self._prepared[q.name]
@@ -184,6 +212,10 @@ class QuantityEvaluator:
                 out[q.name] = float(F[k] * q.params.get("scale", 1.0))
             elif q.kind == "mass_balance":
                 out.update(mass_balance(s, q.name))
+            elif q.kind == "interface_summary":
+                out.update({f"{q.name}_{k}": v for k, v in s.extra_terms[0].body_summary(s, self._prepared[q.name]).items()})
+            elif q.kind == "fluid_pieces":
+                out[q.name] = float(len(shapely.get_parts(s.cut.fluid))) if not s.cut.fluid.is_empty else 0.0
             elif q.kind == "contact_profile":
                 out.update(contact_summary(s, q.params["body"], q.params.get("axis", 0.0), q.params.get("prefix", "")))
             elif q.kind == "reaction":
@@ -224,12 +256,39 @@ class QuantityEvaluator:
                 prof = contact_term(self.system).profile(q.params["body"])
                 np.savetxt(out_dir / f"contact_{q.params['body']}.csv", prof, delimiter=",",
                            header="x,y,pressure,gap,active,weight,n_x,n_y", comments="", fmt="%.12g")
+            elif q.kind == "mass_balance" and history:
+                out[f"{q.name}_err1_max"] = float(max(h.get(f"{q.name}_err1", 0.0) for h in history))
+            elif q.kind == "event":
+                out.update(detect_event(history, q.name, q.params["of"], q.params["when"], self._prepared[q.name]))
+            elif q.kind == "value":
+                out[q.name] = float(q.params["value"])
             elif q.kind == "vortex_center":
                 x, y, psi = vortex_center(self.system.fluid)
                 out[f"{q.name}_x"] = x
                 out[f"{q.name}_y"] = y
                 out[f"{q.name}_psi"] = psi
         return out
+
+
+EVENT_KINDS = ("falls_to_zero", "rises_from_zero")
+
+
+def detect_event(history: list[dict[str, float]], name: str, of: str, when: str, value) -> dict[str, float]:
+    """First step at which the history column ``of`` falls to zero after having been positive
+    (``falls_to_zero``, e.g. lift-off from a contact length) or becomes positive after having
+    been zero (``rises_from_zero``, e.g. first contact). Reports ``<name>_time`` and ``<name>`` =
+    ``value`` (an expression in t) at that time; NaN if it did not happen."""
+    was = None
+    for row in history:
+        v = row.get(of)
+        if v is None:
+            continue
+        on = v > 0.0
+        if was is not None and ((when == "falls_to_zero" and was and not on) or (when == "rises_from_zero" and not was and on)):
+            t = row["time"]
+            return {f"{name}_time": float(t), name: float(value(np.array([0.0]), np.array([0.0]), t)[0])}
+        was = on
+    return {f"{name}_time": float("nan"), name: float("nan")}
 
 
 def contact_term(system):
