@@ -1,5 +1,6 @@
 """Monolithic FSI: restart bit for bit, step-size cuts, checkpoint on failure, Newton rate,
-the Turek-Hron FSI1 benchmark, the stamp (mass balance) and the sinking disk."""
+the stamp (mass balance, interface-flux convergence) and the sinking disk (smooth traction,
+Faxén's terminal velocity). The Turek-Hron FSI1 default runs in tests/test_cases.py."""
 
 from __future__ import annotations
 
@@ -130,33 +131,28 @@ def test_newton_is_quadratic_once_the_cut_is_frozen():
     assert order[-1] >= 1.8, (r, order)
 
 
-def test_turek_hron_fsi1_within_two_percent(tmp_path):
-    """Cylinder and bar embedded, 12 fluid cells across the bar (h = 0.02/12): ux(A), uy(A),
-    drag and lift within 2 % of FeatFlow (level 7+0)."""
-    out = tmp_path / "fsi1"
-    assert main(["run", "turek-hron-fsi1", "--set", "m=12", "--set", "ny=16", "--set", "nx=280", "--out", str(out)]) == 0
-    res = json.loads((out / "results.json").read_text())
-    ref = {"ux_A": 2.270493e-5, "uy_A": 8.208773e-4, "drag": 14.29426, "lift": 0.7637460}
-    for k, v in ref.items():
-        assert abs(res[k] / v - 1) < 0.02, (k, res[k], v)
-
-
-def test_stamp_falling_mass_balance(tmp_path):
-    """Coarse stamp (h = 1/16), first time units of the fall: the discrete mass balance (46)
-    holds to solver tolerance at every step, the stamp falls."""
-    out = tmp_path / "stamp"
-    assert main(["run", "stamp-falling", "--set", "time.segments=[{until=1.0, dt=0.01}, {until=3.0, dt=0.2}]",
-                 "--out", str(out)]) == 0
-    rows = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
-    phi = np.abs(rows["mass_phi_solid"]).max()
-    assert np.all(rows["mass_err1"] < 1e-9 * phi)
-    assert np.all(np.diff(rows["uy_X"]) < 0)
-    assert rows["mass_err2"].max() > 10 * rows["mass_err1"].max()
+def test_stamp_falling_mass_balance_and_interface_flux_rate(tmp_path):
+    """Stamp on h = 1/16 and 1/32, t ∈ [0, 1] (Δt = 0.05): the discrete mass balance (46)
+    holds to solver tolerance at every step and the stamp falls; the weak-imposition error
+    Φ²_err = |Φ^S − Φ^F|, whose exact value is 0, converges: mean over the run 1.58e-5 →
+    5.10e-6 (rate 1.63; 1.95 on to h = 1/64, docs/validation.md), asserted ≥ 1.45."""
+    err2 = []
+    for n in (16, 32):
+        out = tmp_path / f"stamp{n}"
+        assert main(["run", "stamp-falling", "--set", f"n={n}", "--set", "time.segments=[{until=1.0, dt=0.05}]",
+                     "--set", "output.every=0", "--set", "output.figures=false", "--out", str(out)]) == 0
+        rows = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+        phi = np.abs(rows["mass_phi_solid"]).max()
+        assert np.all(rows["mass_err1"] < 1e-9 * phi)
+        assert np.all(np.diff(rows["uy_X"]) < 0)
+        err2.append(rows["mass_err2"].mean())
+    assert np.log2(err2[0] / err2[1]) >= 1.45, err2
 
 
 def test_sinking_disk_smooth_traction(tmp_path):
     """The disk sinks; the vertical fluid force varies smoothly although cells change state
-    every few steps; volume and traction forms agree."""
+    every few steps (largest second difference 1.3 % of the force, asserted 3.8 %); volume
+    and traction forms agree."""
     out = tmp_path / "sink"
     assert main(["run", "sinking-disk", "--set", "n=16", "--set", "time.dt=0.02", "--set", "time.t_end=0.4",
                  "--out", str(out)]) == 0
@@ -166,7 +162,34 @@ def test_sinking_disk_smooth_traction(tmp_path):
     assert np.allclose(F, r["force_y_traction"], rtol=1e-6, atol=1e-9)
     # smoothness: second differences are small compared with the force (no jumps from cut changes)
     d2 = np.abs(np.diff(F[2:], 2))
-    assert d2.max() < 0.05 * np.abs(F).max(), d2.max()
+    assert d2.max() < 0.038 * np.abs(F).max(), d2.max()
+
+
+def faxen_drag(k: float) -> float:
+    """``F / (μ U)`` per unit length of a cylinder (radius a) translating along the centre line
+    of a channel (half-width h, ``k = a/h``) in Stokes flow, fluid at rest far away (Faxén
+    1946)."""
+    return 4.0 * np.pi / (-np.log(k) - 0.9157 + 1.7244 * k ** 2 - 1.7302 * k ** 4 + 2.4056 * k ** 6
+                          - 4.5913 * k ** 8)
+
+
+@pytest.mark.slow  # ~60 s
+def test_sinking_disk_terminal_velocity_matches_faxen(tmp_path):
+    """In a very viscous fluid (μ = 1: Re ≈ 0.004, viscous time h²/ν = 0.25) the disk reaches
+    the Stokes terminal velocity U = (ρ_s − ρ_f) g π a² / (μ F/(μU)) of Faxén's channel formula
+    (a/h = 0.2; the closed bottom 9 a below the disk and the open top 4 a above are far enough:
+    the computed velocity converges to it). Mean velocity over t ∈ [0.25, 0.6]: −6.4 % (n = 16),
+    −2.9 % (n = 32), +0.08 % (n = 64). Asserted at n = 64: 0.25 %."""
+    out = tmp_path / "faxen"
+    assert main(["run", "sinking-disk", "--set", "n=64", "--set", "fluid.mu=1.0", "--set", "time.dt=0.05",
+                 "--set", "time.t_end=0.6", "--set", "output.every=0", "--set", "output.figures=false",
+                 "--out", str(out)]) == 0
+    r = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    a, h, g, drho, mu = 0.1, 0.5, 10.0, 1.0, 1.0
+    U = drho * g * np.pi * a ** 2 / (mu * faxen_drag(a / h))
+    i = int(np.argmin(np.abs(r["time"] - 0.25)))
+    v = -(r["uy_center"][-1] - r["uy_center"][i]) / (r["time"][-1] - r["time"][i])
+    assert abs(v / U - 1) < 0.0025, (v, U)
 
 
 def test_interrupt_keeps_a_resumable_checkpoint(monkeypatch, tmp_path):
