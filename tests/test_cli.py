@@ -108,10 +108,15 @@ def test_run_writes_results_history_fields_and_figures(tmp_path):
 
 
 def test_list_and_show_roundtrip(tmp_path, capsys):
+    import re
+
+    from fsci.cases import CASES
+
     assert main(["list"]) == 0
-    listing = capsys.readouterr().out
-    for name in ("turek-hron-csm1", "turek-hron-csm3", "cavity"):
-        assert name in listing
+    listing = capsys.readouterr().out.splitlines()
+    assert len(listing) == len(CASES)
+    for line, name in zip(listing, CASES):  # name, wall time of the default run, description
+        assert re.match(rf"{name} +~\d+ (s|min)  \S", line), line
     assert main(["show", "cavity", "--set", "re=1000"]) == 0
     toml_text = capsys.readouterr().out
     p = _write(tmp_path, toml_text)
@@ -137,3 +142,26 @@ def test_readme_case_file_runs_and_meets_its_reference(tmp_path):
     assert main(["run", str(case), "--out", str(out)]) == 0
     res = json.loads((out / "results.json").read_text())
     assert res["reference_checks"] and all(c["pass"] for c in res["reference_checks"])
+
+
+def test_run_off_the_verified_setting_says_so(tmp_path, capsys):
+    """A built-in case run with other parameters than ``verified_at`` prints one note line and
+    records it in results.json; its reference checks are still reported."""
+    out = tmp_path / "coarse"
+    assert main(["run", "turek-hron-csm1", "--set", "nx=20", "--set", "ny=2", "--out", str(out)]) == 0
+    notes = [line for line in capsys.readouterr().out.splitlines() if "note:" in line]
+    assert len(notes) == 1 and "nx = 20, ny = 2" in notes[0] and "verified at nx = 320, ny = 16" in notes[0]
+    res = json.loads((out / "results.json").read_text())
+    v = res["verification"]
+    assert not v["verified"] and v["differs"] == {"nx": 20, "ny": 2} and v["note"] == notes[0].strip()
+    assert res["reference_checks"]
+
+
+@pytest.mark.parametrize("value, field", [("{ zz = 1 }", "verified_at.zz"), ("{ E = 'x' }", "verified_at.E"),
+                                          ("3", "verified_at")])
+def test_bad_verified_at_is_rejected(tmp_path, capsys, value, field):
+    text = CASE.format(E=1.0, nu=0.3, bnd="bottom").replace('name = "block"',
+                                                            f'name = "block"\nparameters = {{ E = 1.0 }}\n'
+                                                            f'verified_at = {value}')
+    code, err, created = _run(["run", str(_write(tmp_path, text)), "--out", str(tmp_path / "o")], tmp_path, capsys)
+    assert code == 2 and field in err and len(err.splitlines()) == 1 and not created
