@@ -29,7 +29,7 @@ CASES: dict[str, BuiltinCase] = {
     "turek-hron-csm3": BuiltinCase("Turek-Hron CSM3: elastic bar released under gravity, dynamic",
                                    turek_hron.csm3, "~25 s"),
     "turek-hron-fsi1": BuiltinCase("Turek-Hron FSI1: elastic bar behind a cylinder, steady, both embedded (CutFEM)",
-                                   turek_hron.fsi1, "~80 s"),
+                                   turek_hron.fsi1, "~90 s"),
     "stamp-falling": BuiltinCase("Paper Sec. 4.1: rounded elastic stamp falling onto a rigid slab (until just "
                                  "before contact)", stamp.stamp_falling, "~10 min"),
     "sinking-disk": BuiltinCase("Elastic disk sinking under gravity in quiescent fluid (monolithic FSI)",
