@@ -50,6 +50,7 @@ def lift_off() -> dict[str, Any]:
         "description": "Elastic block on a rigid slab in fluid, dead load q on its dry top, ambient pressure "
                        "rising: lifts off when the pressure reaches q (extension of the fluid traction)",
         "parameters": {"n": 20, "m": 8, "q": 1.0, "p_rate": 1.0, "y_c": 0.0137},
+        "verified_at": {"n": 20, "m": 8, "q": 1.0, "p_rate": 1.0, "y_c": 0.0137},
         "bodies": [slab, block],
         "fluid": {
             "rho": 1e-3, "mu": 0.1,
