@@ -1,0 +1,206 @@
+"""Fluid-structure-contact interaction: the one interface traction (27) through the FSI ->
+contact transition and back. Jacobian in every case I-IV (both variants of III, extension,
+slip-length law (40)), continuity of force and residual in a quasi-static sweep, lift-off at
+the predicted load, contact through a closing film with mass balance, bad input."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from cutcases import fluid_box, static_case
+from fsci.cases import get_case
+from fsci.cli import main
+from fsci.config import problem_from_dict
+from fsci.coupling import traction as tk
+from fsci.errors import InputError
+from fsci.fields import StepContext
+from fsci.simulation import Simulation
+from fsci.system import System
+from helpers import check_jacobian
+
+
+def two_bodies_in_fluid(variant: str) -> tuple[System, StepContext, np.ndarray]:
+    """Two elastic blocks in a fluid box: the upper one, tilted, overlaps the lower one on its
+    left and opens a gap below the slip-law distance h on its right. A random state (θ = 0.6
+    step, random old level) puts interface points in every case I-IV."""
+    lower = {"name": "lower", "material": {"law": "neo_hooke", "E": 10.0, "nu": 0.3, "rho": 1.0},
+             "mesh": {"type": "rectangle", "x0": 0.1, "x1": 0.9, "y0": 0.13, "y1": 0.45, "nx": 4, "ny": 2},
+             "dirichlet": [{"boundary": "bottom", "value": [0.0, 0.0]}],
+             "contact": ["top"], "slip_length": "gap_law"}
+    upper = {"name": "upper", "material": {"law": "neo_hooke", "E": 10.0, "nu": 0.3, "rho": 1.0},
+             "mesh": {"type": "mapped", "nx": 4, "ny": 2, "sides": {
+                 "bottom": {"line": [[0.23, 0.43], [0.77, 0.5]]},
+                 "right": {"line": [[0.77, 0.5], [0.77, 0.81]]},
+                 "top": {"line": [[0.23, 0.81], [0.77, 0.81]]},
+                 "left": {"line": [[0.23, 0.43], [0.23, 0.81]]}}},
+             "contact": ["bottom"], "slip_length": "gap_law"}
+    fluid = fluid_box(8, mu=0.3, interface={"case_iii": variant, "film_closure": 0.0},
+                      dirichlet=[{"boundary": "left", "value": [1.0, 0.0]}])
+    case = static_case([lower, upper], fluid)
+    case["time"] = {"type": "transient", "theta": 1.0, "t_end": 0.1, "dt": 0.1}
+    system = System(problem_from_dict(case))
+    ctx = StepContext(0.0, 0.1, 0.1, 0.6, False)
+    rng = np.random.default_rng(0)
+    for s in system.solids:
+        s.Un = 0.002 * rng.standard_normal(s.U.shape)
+        s.Vn = 0.1 * rng.standard_normal(s.U.shape)
+        s.U = s.Un.copy()
+    f = system.fluid
+    f.Vn = rng.standard_normal(f.V.shape)
+    f.V = f.Vn.copy()
+    f.P = rng.standard_normal(f.P.shape)
+    system.begin_step(ctx)
+    x0 = system.gather()
+    disp = system.field_dofs["displacement"]
+    x0[disp] += 0.002 * rng.standard_normal(len(disp))
+    return system, ctx, x0
+
+
+@pytest.mark.parametrize("variant", ["remark6", "original"])
+def test_coupling_jacobian_in_every_case(variant):
+    """Every block of the coupling term against central differences (< 1e-6 of the block's own
+    size, cut frozen) in a state with points in each case I-IV, the extension active in case
+    IV and the slip law (40) at 0 < g_n < h; case III as Remark 6 (35) and as (33)."""
+    system, ctx, x0 = two_bodies_in_fluid(variant)
+    system.scatter(x0)
+    system.assemble(ctx, want_matrix=False)
+    term = system.extra_terms[0]
+    out, _ = term.samples()
+    case = out[..., tk.O_CASE]
+    gap = out[..., tk.O_GAP]
+    counts = [int(np.sum(case == c)) for c in (tk.CASE_I, tk.CASE_II, tk.CASE_III, tk.CASE_IV)]
+    assert min(counts) > 0, counts
+    assert np.any((case == tk.CASE_I) & (gap > 0) & (gap < term.slip_h))  # law (40) between 0 and h
+    assert np.any(term.pieces(system).ext_edge >= 0)
+    check_jacobian(system, ctx, x0, h=1e-7, label=f"FSCI {variant}")
+
+
+def test_case_iii_variants_differ_only_in_case_iii():
+    """(33) and (35) coincide except at case-III points: the residuals differ only in the fluid
+    rows of cells that hold case-III points."""
+    a, ctx, x0 = two_bodies_in_fluid("remark6")
+    b, _, _ = two_bodies_in_fluid("original")
+    a.scatter(x0)
+    b.scatter(x0)
+    ra = a.assemble(ctx, want_matrix=False).rhs
+    rb = b.assemble(ctx, want_matrix=False).rhs
+    np.testing.assert_allclose(ra[a.field_dofs["displacement"]], rb[b.field_dofs["displacement"]], rtol=0, atol=1e-12)
+    assert np.abs(ra - rb).max() > 1e-6
+
+
+def sweep(n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """An elastic block with a rounded bottom pushed (prescribed displacement of its dry top)
+    through fluid at ambient pressure onto a rigid slab, 1.37 times the initial gap, and pulled
+    back (navslip gap law on both surfaces): one step to 60 % of the push, then steps of
+    ``1/n_steps`` of the push to the full push and back to 60 %. Returns the load level, the total vertical interface force on the
+    block and the first Newton residual of every step."""
+    slab = {"name": "slab", "rigid": True, "extends_outside": True,
+            "material": {"law": "neo_hooke", "E": 1.0, "nu": 0.0},
+            "mesh": {"type": "rectangle", "x0": -0.2, "x1": 1.2, "y0": -0.3, "y1": 0.0137, "nx": 28, "ny": 3},
+            "dirichlet": [{"boundary": "body", "value": [0.0, 0.0]}], "interface": ["top"], "contact": ["top"],
+            "slip_length": "gap_law"}
+    round_bottom = [
+        {"line": [[0.3, 0.6], [0.3, 0.25]], "name": "left"},
+        {"arc": {"start": [0.3, 0.25], "center": [0.5, 0.25], "end": [0.5, 0.05]}, "name": "round"},
+        {"arc": {"start": [0.5, 0.05], "center": [0.5, 0.25], "end": [0.7, 0.25]}, "name": "round"},
+        {"line": [[0.7, 0.25], [0.7, 0.6]], "name": "right"},
+        {"line": [[0.7, 0.6], [0.3, 0.6]], "name": "top"},
+    ]
+    block = {"name": "block", "extends_outside": True,
+             "material": {"law": "neo_hooke", "E": 100.0, "nu": 0.3},
+             "mesh": {"type": "outline", "loops": [round_bottom], "h": 0.04},
+             "dirichlet": [{"boundary": "top", "value": [0.0, "-1.37*(0.05-0.0137)"],
+                            "function": {"type": "table", "times": [0.0, 1.0, 2.0], "values": [0.0, 1.0, 0.0]}}],
+             "interface": ["round", "left", "right"], "contact": ["round"], "slip_length": "gap_law"}
+    fluid = {"rho": 1.0, "mu": 1.0,
+             "grid": {"x": {"start": 0.0, "end": 1.0, "cells": 20}, "y": {"start": -0.1, "end": 0.5, "cells": 12}},
+             "dirichlet": [{"boundary": "top", "value": [0.0, 0.0]}],
+             "interface": {"freeze_cut_after": 40},
+             "neumann": [{"boundary": "left", "type": "pressure", "value": 1.0},
+                         {"boundary": "right", "type": "pressure", "value": 1.0}]}
+    case = {"name": "sweep", "bodies": [slab, block], "fluid": fluid,
+            "time": {"type": "static", "segments": [{"until": 0.6, "dt": 0.6},  # still 0.006 from the slab
+                                                    {"until": 1.4, "dt": 1.0 / n_steps}]},
+            "solver": {"tol_residual": 1e-10, "tol_increment": 1e-11, "max_iterations": 60},
+            "quantities": [{"name": "block", "type": "interface_summary", "body": "block"}],
+            "output": {"every": 0, "figures": False, "fields": False}}
+    sim = Simulation(problem_from_dict(case))
+    first = []
+    sim.step_hooks.append(lambda s, ctx, rep: first.append(rep.residuals[0]))
+    sim.run()
+    t = np.array([h["time"] for h in sim.history])
+    force = np.array([h["block_force_fsi_y"] + h["block_force_contact_y"] for h in sim.history])
+    return t, force, np.array(first)
+
+
+def test_fsi_to_contact_sweep_is_continuous():
+    """Quasi-static sweep through the FSI -> contact transition and back (lift-off), steps of
+    1/40 and 1/80 of the push (33 and 65 steps): the total interface force and the first Newton residual of each step
+    change by amounts that shrink with the step (halving the step halves the largest jump:
+    ratios ≥ 1.8, measured 1.97 and 2.00); a jump at the switch of (27) would not shrink. The
+    block starts at ambient pressure (force = p × width) and contact does form."""
+    res = {n: sweep(n) for n in (40, 80)}
+    (t1, f1, r1), (t2, f2, r2) = res[40], res[80]
+    assert len(t1) == 33 and len(t2) == 65  # no step had to be cut
+    j1, j2 = np.abs(np.diff(f1)).max(), np.abs(np.diff(f2)).max()
+    q1, q2 = r1[1:].max(), r2[1:].max()  # the first step also brings the fluid to ambient pressure
+    print(f"largest force jump {j1:.4g} / {j2:.4g}, largest first residual {q1:.4g} / {q2:.4g}")
+    assert j1 / j2 >= 1.8 and q1 / q2 >= 1.8
+    assert f1[0] == pytest.approx(0.4, rel=0.01) and f1.max() > 0.8
+    i = np.arange(16)
+    np.testing.assert_allclose(f1[i], f1[32 - i], rtol=1e-3)  # pressing and lifting pass the same states
+
+
+def test_lift_off_at_the_predicted_pressure(tmp_path):
+    """The block lifts off when the ambient pressure reaches the load on its dry top (the
+    contact traction falls to the extended fluid traction, not to zero): within 2 % (measured
+    0.6 %); Newton converges in every step; Φ¹ at solver tolerance (measured ≤ 8e-9)."""
+    out = tmp_path / "lift"
+    assert main(["run", "lift-off", "--out", str(out)]) == 0
+    res = json.loads((out / "results.json").read_text())
+    assert res["liftoff_pressure"] == pytest.approx(res["liftoff_pressure_predicted"], rel=0.02)
+    assert res["mass_err1_max"] < 3e-8
+
+
+def test_without_extension_the_block_does_not_lift_off(tmp_path):
+    """With the fluid traction not extended into the contact zone the block's bottom sees no
+    fluid, so it stays in contact however high the ambient pressure rises."""
+    out = tmp_path / "noext"
+    assert main(["run", "lift-off", "--set", "fluid.interface.extension=false",
+                 "--set", "time.segments=[{until=1.5, dt=0.05}]", "--out", str(out)]) in (0, 1)
+    res = json.loads((out / "results.json").read_text())
+    assert res["liftoff_pressure"] is None
+    assert res["block_length_contact"] > 0.4
+
+
+def test_blocks_pressed_through_a_film(tmp_path):
+    """The film closes, contact forms and spreads, the fluid splits in two; every step
+    converges; the case counts go from all-I to II/III in the contact zone; Φ¹ stays at solver
+    tolerance in every step, also where the fluid splits (measured ≤ 2.8e-9)."""
+    out = tmp_path / "bf"
+    assert main(["run", "blocks-film", "--out", str(out)]) == 0
+    res = json.loads((out / "results.json").read_text())
+    rows = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    assert 0.5 < res["first_contact_time"] < 0.9
+    before = rows["time"] < res["first_contact_time"] - 1e-9
+    assert np.all(rows["case_II"][before] + rows["case_III"][before] + rows["case_IV"][before] == 0)
+    assert np.all(rows["pieces"][before] == 1) and rows["pieces"][-1] == 2
+    assert rows["case_II"][-1] > 0
+    assert rows["mass_err1"].max() < 1e-8
+
+
+@pytest.mark.parametrize("change, key", [
+    (lambda c: [c["bodies"][0].pop(k) for k in ("contact", "slip_length")], "bodies[1].contact"),
+    (lambda c: c["fluid"].setdefault("interface", {}).update(kappa0=-0.1), "fluid.interface.kappa0"),
+    (lambda c: c["fluid"].setdefault("interface", {}).update(case_iii="other"), "fluid.interface.case_iii"),
+    (lambda c: c["bodies"][1].update(slip_length="gap-law"), "bodies[1].slip_length"),
+])
+def test_bad_fsci_input_is_one_clear_error(change, key):
+    case = get_case("blocks-film")
+    change(case)
+    with pytest.raises(InputError) as exc:
+        System(problem_from_dict(case))
+    assert exc.value.field.startswith(key), str(exc.value)
