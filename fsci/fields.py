@@ -127,10 +127,15 @@ class SolidField:
 
     # ----------------------------------------------------------------- time stepping
     def begin_step(self, ctx: StepContext) -> None:
-        """Store the explicit (1 - theta) part of the internal and follower forces."""
+        """Store the explicit (1 - theta) part of the internal and follower forces and start
+        Newton from the constant-velocity predictor ``d_n + Δt v_n`` (free dofs; the first
+        residual is then O(Δt) instead of the inertia of the whole velocity change)."""
         self._r_old = None
-        if not ctx.static and ctx.theta < 1.0:
-            self._r_old = self.old_force(ctx)
+        if not ctx.static:
+            if ctx.theta < 1.0:
+                self._r_old = self.old_force(ctx)
+            free = ~self.fixed
+            self.U[free] = self.Un[free] + ctx.dt * self.Vn[free]
 
     def velocity_from(self, U: np.ndarray, ctx: StepContext) -> np.ndarray:
         """One-step-theta velocity ``v = (d - d_n)/(theta dt) - (1 - theta)/theta v_n``."""

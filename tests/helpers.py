@@ -70,8 +70,14 @@ def only_terms(system, names: Iterable[str] | None) -> Iterator[None]:
             del t.assemble
 
 
-def residual(system, ctx: StepContext, x: np.ndarray) -> np.ndarray:
+def residual(system, ctx: StepContext, x: np.ndarray, recut: bool = False) -> np.ndarray:
+    """Residual at ``x``; with ``recut`` the cut is rebuilt at the bodies' positions first (the
+    residual as Newton sees it when the cut follows the iterates)."""
     system.scatter(x)
+    if recut and system.fluid is not None and system.solids:
+        n = system.layout.n_dofs
+        system.update_cut()
+        assert system.layout.n_dofs == n, "the ACTIVE set changed under a finite-difference step"
     return system.assemble(ctx, want_matrix=False, dirichlet=False).rhs.copy()
 
 
@@ -113,7 +119,7 @@ class BlockErrors:
 
 def jacobian_blocks(system, ctx: StepContext, x0: np.ndarray, h: float = 1e-6,
                     h_field: Mapping[str, float] | None = None, dofs: Sequence[int] | None = None,
-                    terms: Iterable[str] | None = None, label: str = "") -> BlockErrors:
+                    terms: Iterable[str] | None = None, label: str = "", recut: bool = False) -> BlockErrors:
     """Compare the assembled Jacobian with central differences of the residual, per field block.
 
     Parameters
@@ -135,6 +141,10 @@ def jacobian_blocks(system, ctx: StepContext, x0: np.ndarray, h: float = 1e-6,
         Residual terms to assemble (names from :func:`residual_terms`; all by default).
     label : str
         Shown in the table and assertion message.
+    recut : bool
+        Rebuild the cut for every residual evaluation, so that the differences include the
+        dependence of the cut (fluid domain, interface pieces) on the displacements; without
+        it the cut stays frozen at ``x0``.
     """
     fields = dof_fields(system)
     field_of = np.empty(len(x0), dtype=object)
@@ -146,6 +156,8 @@ def jacobian_blocks(system, ctx: StepContext, x0: np.ndarray, h: float = 1e-6,
         step[fields[name]] = hf
     with only_terms(system, terms):
         system.scatter(x0)
+        if recut and system.fluid is not None and system.solids:
+            system.update_cut()
         J = system.assemble(ctx, want_matrix=True, dirichlet=False).matrix().toarray()
         fd = np.empty((len(x0), len(cols)))
         for k, j in enumerate(cols):
@@ -153,8 +165,10 @@ def jacobian_blocks(system, ctx: StepContext, x0: np.ndarray, h: float = 1e-6,
             xp[j] += step[j]
             xm = x0.copy()
             xm[j] -= step[j]
-            fd[:, k] = (residual(system, ctx, xp) - residual(system, ctx, xm)) / (2 * step[j])
+            fd[:, k] = (residual(system, ctx, xp, recut) - residual(system, ctx, xm, recut)) / (2 * step[j])
     system.scatter(x0)
+    if recut and system.fluid is not None and system.solids:
+        system.update_cut()
     Jc = J[:, cols]
     diff = np.abs(fd - Jc)
     errors, size = {}, {}
@@ -176,12 +190,14 @@ def jacobian_blocks(system, ctx: StepContext, x0: np.ndarray, h: float = 1e-6,
 
 def check_jacobian(system, ctx: StepContext, x0: np.ndarray, h: float = 1e-6,
                    h_field: Mapping[str, float] | None = None, dofs: Sequence[int] | None = None,
-                   tol: float = TOL, label: str = "") -> dict[str, BlockErrors]:
+                   tol: float = TOL, label: str = "", recut: bool = False) -> dict[str, BlockErrors]:
     """Per-block Jacobian check of all terms together and of every term on its own.
 
     Each term alone is checked so that a small term's error is measured against that term's
     own block size, not against the other terms added into the same block (the interface
-    term's share of the solid-solid block, say). Arguments as in :func:`jacobian_blocks`.
+    term's share of the solid-solid block, say). Arguments as in :func:`jacobian_blocks`; with
+    ``recut`` only all terms together are compared (the cut's motion changes the fluid term's
+    residual, whose Jacobian with respect to it comes from the coupling term).
 
     Returns
     -------
@@ -190,9 +206,9 @@ def check_jacobian(system, ctx: StepContext, x0: np.ndarray, h: float = 1e-6,
         (only ``"all"`` if the system has a single term).
     """
     names = list(residual_terms(system))
-    runs = {"all": None} | ({n: [n] for n in names} if len(names) > 1 else {})
-    out = {run: jacobian_blocks(system, ctx, x0, h, h_field, dofs, terms, f"[{label} {run}]".replace("[ ", "["))
-           for run, terms in runs.items()}
+    runs = {"all": None} | ({n: [n] for n in names} if len(names) > 1 and not recut else {})
+    out = {run: jacobian_blocks(system, ctx, x0, h, h_field, dofs, terms, f"[{label} {run}]".replace("[ ", "["),
+                                recut) for run, terms in runs.items()}
     for res in out.values():
         print(res.table())
     failures = [m for m in (res.failure(tol) for res in out.values()) if m is not None]

@@ -242,15 +242,20 @@ def test_poiseuille_with_slip_converges(kind):
 # ----------------------------------------------------------------------------- Jacobian
 @pytest.mark.parametrize("theta", [0.5, 0.6, 1.0])
 @pytest.mark.parametrize("adjoint, slip", [("skew", 0.0), ("symmetric", 0.2), ("skew", "inf")])
-def test_nitsche_coupling_jacobian_matches_finite_differences(adjoint, slip, theta):
-    """Interface terms with a free (elastic) body, cut frozen: every block (u-u, u-v, u-p, v-u,
-    v-v, v-p, p-u, p-v, p-p) against central differences relative to its own size, for all
-    terms together and for each term (solid, fluid, coupling) on its own, θ-weighted steps."""
+@pytest.mark.parametrize("recut", [False, True])
+def test_nitsche_coupling_jacobian_matches_finite_differences(adjoint, slip, theta, recut):
+    """Interface terms with a free (elastic) body: every block (u-u, u-v, u-p, v-u, v-v, v-p,
+    p-u, p-v, p-p) against central differences relative to its own size, θ-weighted steps.
+    Cut frozen (``recut`` False, shape derivative off): all terms together and each term
+    (solid, fluid, coupling) on its own. Cut rebuilt for every difference (``recut`` True,
+    shape derivative on): the Jacobian includes the motion of the fluid boundary — Reynolds
+    transport of the bulk integrals and the grid-line splits moving with the edges — measured
+    ≤ 6e-9 (without it the p-u block is 28 % off)."""
     body = {"name": "blob", "material": {"law": "neo_hooke", "E": 10.0, "nu": 0.3, "rho": 1.0},
             "mesh": {"type": "rectangle", "x0": 0.33, "x1": 0.71, "y0": 0.37, "y1": 0.62, "nx": 3, "ny": 2},
             "slip_length": slip}
-    fluid = fluid_box(5, mu=0.3, interface={"adjoint": adjoint},
-                      dirichlet=[{"boundary": "left", "value": [1.0, 0.0]}])
+    fluid = fluid_box(5, mu=0.3, interface={"adjoint": adjoint, "shape_derivative": recut},
+                      body_force=[0.3, "-1+x"], dirichlet=[{"boundary": "left", "value": [1.0, 0.0]}])
     case = static_case([body], fluid)
     case["time"] = {"type": "transient", "theta": 1.0, "t_end": 0.1, "dt": 0.1}
     system = System(problem_from_dict(case))
@@ -263,7 +268,8 @@ def test_nitsche_coupling_jacobian_matches_finite_differences(adjoint, slip, the
     system.begin_step(ctx)
     x0 = 0.01 * rng.standard_normal(system.layout.n_dofs)
     x0[system.field_dofs["velocity"]] += rng.standard_normal(len(system.field_dofs["velocity"]))
-    check_jacobian(system, ctx, x0, label=f"{adjoint} κ={slip} θ={theta}")
+    check_jacobian(system, ctx, x0, h=1e-7 if recut else 1e-6, recut=recut,
+                   label=f"{adjoint} κ={slip} θ={theta} recut={recut}")
 
 
 # ----------------------------------------------------------------------------- cases

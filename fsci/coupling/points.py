@@ -37,8 +37,10 @@ class CouplingPieces:
     edge: np.ndarray  # index into that body's coupling edges
     s0: np.ndarray  # parameter range on the edge (0 at its first node)
     s1: np.ndarray
-    d0: np.ndarray  # end descriptors: -1 fixed, 0/1 projection of the opposite segment's node
-    d1: np.ndarray
+    d0: np.ndarray  # end descriptors: -1 fixed, 0/1 projection of the opposite segment's node,
+    d1: np.ndarray  # 2/3 on the grid line x = c / y = c (fsci.cut.state.END_X, END_Y)
+    c0: np.ndarray  # grid-line coordinate of an end of kind 2/3
+    c1: np.ndarray
     cell: np.ndarray  # fluid cell of the piece (-1: none)
     fs: np.ndarray  # bounds the physical fluid (Γ^FS)
     opp_body: np.ndarray  # body of the opposite segment (-1: none, g_n = ∞)
@@ -63,17 +65,20 @@ class BoundaryOf:
 
 
 def _base_pieces(boundaries: list[BoundaryOf], cut) -> list[tuple[np.ndarray, ...]]:
-    """Per body ``(edge, s0, s1, cell, fs)``: the cut's pieces inside the box, or (dry) the
-    contact edges whole."""
+    """Per body ``(edge, s0, s1, kind0, line0, kind1, line1, cell, fs)``: the cut's pieces inside
+    the box, or (dry) the contact edges whole."""
     out = []
     for b, bd in enumerate(boundaries):
         if cut is not None:
             seg = cut.segments
             m = (seg.body == b) & seg.inside
-            out.append((seg.edge[m], seg.s0[m], seg.s1[m], seg.cell[m], seg.fs[m]))
+            out.append((seg.edge[m], seg.s0[m], seg.s1[m], seg.kind0[m], seg.line0[m], seg.kind1[m], seg.line1[m],
+                        seg.cell[m], seg.fs[m]))
         else:
             e = bd.contact
-            out.append((e, np.zeros(len(e)), np.ones(len(e)), np.full(len(e), -1, np.int64), np.zeros(len(e), bool)))
+            fixed = np.full(len(e), -1, np.int64)
+            out.append((e, np.zeros(len(e)), np.ones(len(e)), fixed, np.zeros(len(e)), fixed, np.zeros(len(e)),
+                        np.full(len(e), -1, np.int64), np.zeros(len(e), bool)))
     return out
 
 
@@ -96,38 +101,36 @@ def _search(boundaries: list[BoundaryOf], radius: float, self_contact: bool, spl
 
 def _merge(base: tuple[np.ndarray, ...], contact: tuple[np.ndarray, ...] | None) -> list[tuple]:
     """Split the base pieces of one body at the ends of its contact pieces and attach the
-    opposite segment covering each sub-piece."""
-    e, s0, s1, cell, fs = base
+    opposite segment covering each sub-piece. Rows: (edge, s0, s1, d0, d1, c0, c1, cell, fs,
+    opposite body, opposite edge)."""
+    e, s0, s1, k0, l0, k1, l1, cell, fs = base
     rows = []
-    if contact is None:
-        for k in range(len(e)):
-            rows.append((e[k], s0[k], s1[k], -1, -1, cell[k], fs[k], -1, -1))
-        return rows
-    ce, ob, oe, c0, c1, cd0, cd1 = contact
     by_edge: dict[int, list[int]] = {}
-    for j in range(len(ce)):
-        by_edge.setdefault(int(ce[j]), []).append(j)
+    if contact is not None:
+        ce, ob, oe, c0, c1, cd0, cd1 = contact
+        for j in range(len(ce)):
+            by_edge.setdefault(int(ce[j]), []).append(j)
     for k in range(len(e)):
         cand = by_edge.get(int(e[k]))
         if not cand:
-            rows.append((e[k], s0[k], s1[k], -1, -1, cell[k], fs[k], -1, -1))
+            rows.append((e[k], s0[k], s1[k], k0[k], k1[k], l0[k], l1[k], cell[k], fs[k], -1, -1))
             continue
-        cuts = [s0[k], s1[k]] + [v for j in cand for v in (c0[j], c1[j]) if s0[k] < v < s1[k]]
-        cuts = np.unique(cuts)
+        cuts = np.unique([s0[k], s1[k]] + [v for j in cand for v in (c0[j], c1[j]) if s0[k] < v < s1[k]])
         for lo, hi in zip(cuts[:-1], cuts[1:]):
             if hi - lo <= 1e-13:
                 continue
             mid = 0.5 * (lo + hi)
             hit = [j for j in cand if c0[j] <= mid <= c1[j]]
-            if not hit:
-                rows.append((e[k], lo, hi, -1, -1, cell[k], fs[k], -1, -1))
-                continue
-            j = hit[0]
-            # ends at projected opposite nodes move with the unknowns (Remark 9), except on Γ^FS,
-            # whose pieces must tile the fluid boundary of the cut (discrete mass balance (46))
-            dl = cd0[j] if abs(lo - c0[j]) <= 1e-14 and not fs[k] else -1
-            dh = cd1[j] if abs(hi - c1[j]) <= 1e-14 and not fs[k] else -1
-            rows.append((e[k], lo, hi, dl, dh, cell[k], fs[k], ob[j], oe[j]))
+            j = hit[0] if hit else -1
+            # an end is the base piece's end (fixed or on a grid line), or where an opposite node
+            # projects (Remark 9, moving with the unknowns) — except on Γ^FS, whose pieces must tile
+            # the fluid boundary of the cut (discrete mass balance (46))
+            dl, cl = (k0[k], l0[k]) if lo == s0[k] else (
+                (cd0[j], 0.0) if j >= 0 and abs(lo - c0[j]) <= 1e-14 and not fs[k] else (-1, 0.0))
+            dh, ch = (k1[k], l1[k]) if hi == s1[k] else (
+                (cd1[j], 0.0) if j >= 0 and abs(hi - c1[j]) <= 1e-14 and not fs[k] else (-1, 0.0))
+            rows.append((e[k], lo, hi, dl, dh, cl, ch, cell[k], fs[k], ob[j] if j >= 0 else -1,
+                         oe[j] if j >= 0 else -1))
     return rows
 
 
@@ -186,17 +189,17 @@ def build_pieces(boundaries: list[BoundaryOf], cut, radius: float, self_contact:
     contact = _search(boundaries, radius, self_contact, split, n_fixed)
     cols = []
     for b, bd in enumerate(boundaries):
-        rows = np.array(_merge(base[b], contact.get(b)), dtype=float).reshape(-1, 9)
+        rows = np.array(_merge(base[b], contact.get(b)), dtype=float).reshape(-1, 11)
         scale = 1.0 + float(np.max(np.abs(bd.x))) if len(bd.x) else 1.0
-        ext = _extension(bd.x, bd.edges, rows[:, [0, 1, 2, 3, 4, 5, 6]], scale) if cut is not None and extension else \
+        ext = _extension(bd.x, bd.edges, rows[:, [0, 1, 2, 3, 4, 7, 8]], scale) if cut is not None and extension else \
             np.full((len(rows), 3), -1.0)
-        fs = rows[:, 6] > 0
-        has_opp = rows[:, 7] >= 0
+        fs = rows[:, 8] > 0
+        has_opp = rows[:, 9] >= 0
         keep = fs | has_opp | (ext[:, 0] >= 0)
         rows, ext = rows[keep], ext[keep]
         cols.append(np.column_stack([np.full(len(rows), b), rows, ext]))
-    a = np.vstack(cols) if cols else np.zeros((0, 13))
+    a = np.vstack(cols) if cols else np.zeros((0, 15))
     i = lambda c: a[:, c].astype(np.int64)  # noqa: E731
-    return CouplingPieces(body=i(0), edge=i(1), s0=a[:, 2].copy(), s1=a[:, 3].copy(), d0=i(4), d1=i(5), cell=i(6),
-                          fs=a[:, 7] > 0, opp_body=i(8), opp_edge=i(9), ext_edge=i(10), ext_s=a[:, 11].copy(),
-                          ext_cell=i(12))
+    return CouplingPieces(body=i(0), edge=i(1), s0=a[:, 2].copy(), s1=a[:, 3].copy(), d0=i(4), d1=i(5),
+                          c0=a[:, 6].copy(), c1=a[:, 7].copy(), cell=i(8), fs=a[:, 9] > 0, opp_body=i(10),
+                          opp_edge=i(11), ext_edge=i(12), ext_s=a[:, 13].copy(), ext_cell=i(14))

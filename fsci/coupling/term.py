@@ -36,7 +36,7 @@ from fsci.errors import InputError
 from fsci.expressions import Expression
 from fsci.fem.q1 import q1_eval
 from fsci.fem.quadrature import gauss_line, gauss_quad
-from fsci.fields import StepContext
+from fsci.fields import StepContext, time_weighted_vector
 from fsci.physics.materials import LAW_NAMES
 
 GAP_LAW = "gap_law"
@@ -217,9 +217,13 @@ class CouplingTerm:
         Xe = np.zeros((K, 2, 2))
         We = np.zeros((K, 2, 2))
         vqe = np.zeros((K, 2))
+        Vo = np.zeros((K, 4, 2))  # previous fluid velocity at the cell nodes (bulk shape derivative)
+        bq = np.zeros((K, G, 2))  # fluid body-force density at the Gauss points
         vmax_s = np.zeros(K)
         fp[:, tk.F_S0] = pc.s0
         fp[:, tk.F_S1] = pc.s1
+        fp[:, tk.F_C0] = pc.c0
+        fp[:, tk.F_C1] = pc.c1
         ip[:, tk.I_D0] = pc.d0
         ip[:, tk.I_D1] = pc.d1
         has_opp = pc.opp_body >= 0
@@ -332,13 +336,23 @@ class CouplingTerm:
                 gam, hk = cell_data(sel, pc.cell[sel], 8, tk.OFF_CELL, (tk.F_X0C, tk.F_Y0C, tk.F_HX, tk.F_HY))
                 fp[sel, tk.F_GAM] = gam
                 fp[sel, tk.F_AT] = hk / (st.gamma_t * st.trace_constant)
+                Vo[sel] = (f.V if ctx.static else f.Vn)[g.cells[pc.cell[sel]]]
+                if f.spec.body_force is not None:
+                    body = pc.body[sel]
+                    xg = np.zeros((len(sel), G, 2))
+                    for b, s in enumerate(system.solids):
+                        mb = body == b
+                        e = self._edges[b][pc.edge[sel[mb]]]
+                        xg[mb] = self._gauss_points((s.X + s.U)[e], pc.s0[sel[mb]], pc.s1[sel[mb]])
+                    bq[sel] = f.rho * time_weighted_vector(f.spec.body_force, f.spec.body_force_function, ctx,
+                                                           lambda: xg.reshape(-1, 2), len(sel) * G).reshape(-1, G, 2)
             sel = np.nonzero(has_ext)[0]
             if len(sel):
                 gam, _ = cell_data(sel, pc.ext_cell[sel], 12, tk.OFF_EXT, (tk.F_X0E, tk.F_Y0E, tk.F_HXE, tk.F_HYE))
                 fp[sel, tk.F_GAME] = gam
                 fp[sel, tk.F_SE] = pc.ext_s[sel]
         return dict(z=z, conn=conn, ip=ip, fp=fp, Xo=Xo, prmo=prmo, Xm=Xm, prmm=prmm, W=W, vq=vq, kap=kap, Xe=Xe,
-                    We=We, vqe=vqe)
+                    We=We, vqe=vqe, Vo=Vo, bq=bq)
 
     def _gauss_points(self, x: np.ndarray, s0: np.ndarray, s1: np.ndarray) -> np.ndarray:
         s = s0[:, None] + (s1 - s0)[:, None] * self.gp[None, :]
@@ -359,12 +373,16 @@ class CouplingTerm:
         ctx = getattr(system, "ctx", None) or StepContext(0.0, 1.0, 1.0, 1.0, True)
         return [self._current(system, ctx)["conn"]]
 
-    def _run(self, system, d: dict, asm: Assembly, weights: tuple[float, float, float], out: np.ndarray) -> None:
+    def _run(self, system, ctx: StepContext, d: dict, asm: Assembly, weights: tuple[float, float, float],
+             out: np.ndarray) -> None:
         f = system.fluid
         mu, sym = (1.0, 0.0) if f is None else (f.mu, f.sym)
+        fprm = np.zeros(5) if f is None else f.cell_parameters(ctx)
+        shape = f is not None and self.iset.shape_derivative
         tk.assemble_pieces(d["z"], d["ip"], d["fp"], d["Xo"], d["prmo"], d["Xm"], d["prmm"], d["W"], d["vq"],
-                           d["kap"], d["Xe"], d["We"], d["vqe"], mu, sym, self.sadj, self.variant33, *weights,
-                           self.gp, self.gw, d["conn"], asm.positions(d["conn"]), *asm.target(), out)
+                           d["kap"], d["Xe"], d["We"], d["vqe"], d["Vo"], d["bq"], fprm, shape, mu, sym, self.sadj,
+                           self.variant33, *weights, self.gp, self.gw, d["conn"], asm.positions(d["conn"]),
+                           *asm.target(), out)
 
     def begin_step(self, system, ctx: StepContext) -> None:
         self.update_penalty(system)
@@ -380,7 +398,7 @@ class CouplingTerm:
         d = self.gather(system, ctx, level="old")
         asm = ResidualAssembly(system.layout)
         out = np.zeros((len(d["ip"]), len(self.gp), tk.N_OUT))
-        self._run(system, d, asm, (0.0, 1.0, 0.0), out)
+        self._run(system, ctx, d, asm, (0.0, 1.0, 0.0), out)
         st = system.layout.start
         old = {f"solid{i}": asm.rhs[st[s.gnode][:, None] + np.arange(2)].copy() for i, s in enumerate(system.solids)}
         if system.fluid is not None:
@@ -395,7 +413,7 @@ class CouplingTerm:
         d = self._current(system, ctx)
         out = np.zeros((len(d["ip"]), len(self.gp), tk.N_OUT))
         w_t = 1.0 if ctx.static else ctx.theta
-        self._run(system, d, asm, (1.0, w_t, 1.0), out)
+        self._run(system, ctx, d, asm, (1.0, w_t, 1.0), out)
         self.out = out
         self._out_body = self.pieces(system).body
         if self._old is not None:

@@ -45,6 +45,7 @@ from numba import njit
 
 from fsci.fem.q1 import q1_physical_gradients, q1_shape
 from fsci.fem.sparse import add_local
+from fsci.physics.fluid import galerkin_density
 from fsci.physics.materials import cauchy_stress
 
 CS_STEP = 1e-30  # complex-step size
@@ -61,8 +62,8 @@ I_EO, I_LAWO, I_EM, I_LAWM, I_D0, I_D1, I_FLAGS = range(7)
 N_INT = 7
 # float data per piece
 (F_WOWN, F_PEN, F_S0, F_S1, F_CU, F_GAM, F_AT, F_X0C, F_Y0C, F_HX, F_HY, F_SE, F_CUE, F_GAME, F_X0E, F_Y0E,
- F_HXE, F_HYE, F_KAPPA0, F_SLIPH) = range(20)
-N_FLT = 20
+ F_HXE, F_HYE, F_KAPPA0, F_SLIPH, F_C0, F_C1) = range(22)
+N_FLT = 22
 # columns of the per-Gauss-point output
 (O_X, O_Y, O_CASE, O_GAP, O_F, O_CC, O_KAPPA, O_W, O_NX, O_NY, O_TX, O_TY, O_TN_FSI, O_TN_CON) = range(14)
 N_OUT = 14
@@ -89,13 +90,19 @@ def _stress_nn(Xe, ue, law, prm, r, s, n0, n1):
 
 
 @njit(cache=True, inline="always")
-def _piece_end(d, s_fixed, A0, A1, t0, t1, L2, P0, P1, Q0, Q1):
-    """End of a piece: fixed (d < 0) or the orthogonal projection of opposite node d (Remark 9)."""
+def _piece_end(d, s_fixed, c, A0, A1, t0, t1, L2, P0, P1, Q0, Q1):
+    """End of a piece on the edge A + s t: fixed (d < 0), the orthogonal projection of opposite
+    node d = 0/1 (Remark 9), or where the edge crosses the grid line x = c (d = 2) / y = c (d = 3)
+    — the ends move with the unknowns, so the Jacobian includes the motion of the splits."""
     if d < 0:
         return s_fixed + 0.0 * A0
     if d == 0:
         return ((P0 - A0) * t0 + (P1 - A1) * t1) / L2
-    return ((Q0 - A0) * t0 + (Q1 - A1) * t1) / L2
+    if d == 1:
+        return ((Q0 - A0) * t0 + (Q1 - A1) * t1) / L2
+    if d == 2:
+        return (c - A0) / t0
+    return (c - A1) / t1
 
 
 @njit(cache=True)
@@ -167,12 +174,8 @@ def piece_residual(z, r, out, ip, fp, Xo, prmo, Xm, prmm, W, vq, kap, Xe, We, vq
     P1 = Xm[ja, 1] + um[ja, 1]
     Q0 = Xm[jb, 0] + um[jb, 0]
     Q1 = Xm[jb, 1] + um[jb, 1]
-    if has_opp:
-        sa = _piece_end(ip[I_D0], fp[F_S0], A0, A1, t0, t1, L2, P0, P1, Q0, Q1)
-        sb = _piece_end(ip[I_D1], fp[F_S1], A0, A1, t0, t1, L2, P0, P1, Q0, Q1)
-    else:
-        sa = fp[F_S0] + 0.0 * A0
-        sb = fp[F_S1] + 0.0 * A0
+    sa = _piece_end(ip[I_D0], fp[F_S0], fp[F_C0], A0, A1, t0, t1, L2, P0, P1, Q0, Q1)
+    sb = _piece_end(ip[I_D1], fp[F_S1], fp[F_C1], A0, A1, t0, t1, L2, P0, P1, Q0, Q1)
     e0 = Q0 - P0
     e1 = Q1 - P1
     det = -e0 * n1 + n0 * e1
@@ -346,21 +349,78 @@ def piece_residual(z, r, out, ip, fp, Xo, prmo, Xm, prmm, W, vq, kap, Xe, We, vq
     return contributes
 
 
+@njit(cache=True)
+def add_bulk_shape_derivative(K, z, ip, fp, Xo, Vo, bq, fprm, gp, gw):
+    """Add to ``K`` (full local Jacobian) the derivative of the fluid bulk integrals (22) over the
+    piece's cell with respect to the motion of the piece (Reynolds transport: moving Γ^FS by δu
+    into the fluid removes fluid, ``δ ∫_{Ω^F} r_i = −∫_{Γ^FS} r_i (δu · n) ds``), where ``r_i`` is
+    the Galerkin integrand of fluid test function i (:func:`fsci.physics.fluid.galerkin_density`).
+    Cut-cell quadrature is exact for these integrands, so this is the exact derivative of the
+    discrete bulk residual with respect to the boundary position. ``Vo``: previous velocity at
+    the cell nodes, ``bq[g]``: body-force density at the Gauss points, ``fprm``: cell
+    parameters of the fluid kernel."""
+    if (ip[I_FLAGS] & ON_FS) == 0:
+        return
+    eo = ip[I_EO]
+    ia = eo
+    ib = (eo + 1) % 4
+    A0 = Xo[ia, 0] + z[2 * ia]
+    A1 = Xo[ia, 1] + z[2 * ia + 1]
+    t0 = Xo[ib, 0] + z[2 * ib] - A0
+    t1 = Xo[ib, 1] + z[2 * ib + 1] - A1
+    L2 = t0 * t0 + t1 * t1
+    L = np.sqrt(L2)
+    n0 = t1 / L
+    n1 = -t0 / L
+    sa = _piece_end(ip[I_D0], fp[F_S0], fp[F_C0], A0, A1, t0, t1, L2, 0.0, 0.0, 0.0, 0.0)
+    sb = _piece_end(ip[I_D1], fp[F_S1], fp[F_C1], A0, A1, t0, t1, L2, 0.0, 0.0, 0.0, 0.0)
+    hx = fp[F_HX]
+    hy = fp[F_HY]
+    N = np.empty(4)
+    dN = np.empty((4, 2))
+    dNx = np.empty((4, 2))
+    Ve = np.empty((4, 2))
+    Pe = np.empty(4)
+    gv = np.empty((2, 2))
+    dens = np.empty(12)
+    for A in range(4):
+        Ve[A, 0] = z[OFF_CELL + 3 * A]
+        Ve[A, 1] = z[OFF_CELL + 3 * A + 1]
+        Pe[A] = z[OFF_CELL + 3 * A + 2]
+    for g in range(len(gp)):
+        s = sa + (sb - sa) * gp[g]
+        w = gw[g] * (sb - sa) * L
+        q1_shape(2.0 * (A0 + s * t0 - fp[F_X0C]) / hx - 1.0, 2.0 * (A1 + s * t1 - fp[F_Y0C]) / hy - 1.0, N, dN)
+        for A in range(4):
+            dNx[A, 0] = dN[A, 0] * 2.0 / hx
+            dNx[A, 1] = dN[A, 1] * 2.0 / hy
+        galerkin_density(N, dNx, Ve, Vo, Pe, gv, fprm, bq[g, 0], bq[g, 1], dens)
+        for r in range(12):
+            f = -w * dens[r]
+            K[OFF_CELL + r, 2 * ia] += f * (1.0 - s) * n0
+            K[OFF_CELL + r, 2 * ia + 1] += f * (1.0 - s) * n1
+            K[OFF_CELL + r, 2 * ib] += f * s * n0
+            K[OFF_CELL + r, 2 * ib + 1] += f * s * n1
+
+
 _SLOT_OFFSET = np.array([0, 2, 4, 6, 8, 10, 12, 14, 16, 19, 22, 25, 28, 31, 34, 37, 40, 42])
 _SLOT_NDOF = np.array([2, 2, 2, 2, 2, 2, 2, 2, 3, 3, 3, 3, 3, 3, 3, 3, 2, 2])
 
 
 @njit(cache=True)
 def assemble_pieces(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_all, vq_all, kap_all, Xe_all,
-                    We_all, vqe_all, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw, conn, pos, data, rhs, row_base,
-                    row_len, start, ndof, want_matrix, out_all):
-    """Add every piece: its residual and the complex-step Jacobian over its local unknowns.
+                    We_all, vqe_all, Vo_all, bq_all, fprm, shape, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw,
+                    conn, pos, data, rhs, row_base, row_len, start, ndof, want_matrix, out_all):
+    """Add every piece: its residual and the Jacobian — complex step over its local unknowns,
+    plus (``shape``) the derivative of the fluid bulk integrals with respect to the position of
+    Γ^FS (:func:`add_bulk_shape_derivative`).
 
     ``conn[k]`` holds the global nodes of the ``N_SLOTS`` node slots (-1: slot absent); local
     rows and columns are compacted to the present slots before :func:`add_local`."""
     r = np.empty(N_LOCAL)
     rc = np.empty(N_LOCAL, dtype=np.complex128)
     zc = np.empty(N_LOCAL, dtype=np.complex128)
+    Kf = np.zeros((N_LOCAL, N_LOCAL))
     dummy = np.empty((len(gp), N_OUT))
     idx = np.empty(N_LOCAL, dtype=np.int64)
     for k in range(len(ip_all)):
@@ -381,13 +441,20 @@ def assemble_pieces(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W
         for i in range(m):
             Re[i] = r[idx[i]]
         if want_matrix:
+            Kf[:, :] = 0.0
             for jj in range(m):
+                j = idx[jj]
                 for l in range(N_LOCAL):
                     zc[l] = z[l]
-                zc[idx[jj]] += 1j * CS_STEP
+                zc[j] += 1j * CS_STEP
                 piece_residual(zc, rc, dummy, ip_all[k], fp_all[k], Xo_all[k], prmo_all[k], Xm_all[k], prmm_all[k],
                                W_all[k], vq_all[k], kap_all[k], Xe_all[k], We_all[k], vqe_all[k], mu, sym, sadj,
                                variant33, w_p, w_t, w_c, gp, gw)
-                for ii in range(m):
-                    Ke[ii, jj] = rc[idx[ii]].imag / CS_STEP
+                for l in range(N_LOCAL):
+                    Kf[l, j] = rc[l].imag / CS_STEP
+            if shape:
+                add_bulk_shape_derivative(Kf, z, ip_all[k], fp_all[k], Xo_all[k], Vo_all[k], bq_all[k], fprm, gp, gw)
+            for ii in range(m):
+                for jj in range(m):
+                    Ke[ii, jj] = Kf[idx[ii], idx[jj]]
         add_local(data, rhs, row_base, row_len, start, ndof, conn[k], pos[k], Ke, Re, want_matrix)

@@ -32,6 +32,9 @@ from fsci.geometry.outlines import Outline
 from fsci.mesh.grid import Grid
 
 FLUID, CUT, SOLID = 0, 1, 2
+# kinds of interface-piece ends: fixed parameter, or on a grid line x = const / y = const (the end
+# then moves along the line with the edge, see fsci.coupling.traction)
+END_FIXED, END_X, END_Y = -1, 2, 3
 AREA_TOL = 1e-15  # relative to the cell area: below this a fluid or solid part is treated as empty
 
 
@@ -45,6 +48,10 @@ class Segments:
     s1: np.ndarray
     cell: np.ndarray  # background cell evaluated for fluid quantities
     fs: np.ndarray  # True: bounds the physical fluid (Γ^FS); False: Γ^SC
+    kind0: np.ndarray  # kind of each end (END_FIXED, END_X, END_Y) and its grid-line coordinate
+    line0: np.ndarray
+    kind1: np.ndarray
+    line1: np.ndarray
     inside: np.ndarray  # the piece faces into the fluid box (not outside it, not on a box side facing out)
 
     def __len__(self) -> int:
@@ -71,8 +78,9 @@ def _raster_edges(p0, p1, xs, ys, tol, mark):
 
 
 @njit(cache=True)
-def _grid_crossings(a, b, xs, ys, out_edge, out_s, count):
-    """Parameters in (0, 1) where segments a->b cross grid lines (incl. the box sides)."""
+def _grid_crossings(a, b, xs, ys, out_edge, out_s, out_kind, out_line, count):
+    """Parameters in (0, 1) where segments a->b cross grid lines (incl. the box sides), with the
+    kind of line (``END_X``: x = const, ``END_Y``: y = const) and its coordinate."""
     n = 0
     for k in range(a.shape[0]):
         for d in range(2):
@@ -90,6 +98,8 @@ def _grid_crossings(a, b, xs, ys, out_edge, out_s, count):
                     if n < out_s.shape[0]:
                         out_edge[n] = k
                         out_s[n] = s
+                        out_kind[n] = END_X if d == 0 else END_Y
+                        out_line[n] = lines[i]
                     n += 1
     count[0] = n
 
@@ -287,16 +297,17 @@ class CutState:
             ev_edge = [np.arange(nE), np.arange(nE)]
             ev_s = [np.zeros(nE), np.ones(nE)]
             cap = 64 * nE + 64
-            oe = np.empty(cap, dtype=np.int64)
-            os_ = np.empty(cap)
             cnt = np.zeros(1, dtype=np.int64)
-            _grid_crossings(a, c, g.xs, g.ys, oe, os_, cnt)
-            if cnt[0] > cap:
-                oe = np.empty(cnt[0], dtype=np.int64)
-                os_ = np.empty(cnt[0])
-                _grid_crossings(a, c, g.xs, g.ys, oe, os_, cnt)
-            ev_edge.append(oe[: cnt[0]])
-            ev_s.append(os_[: cnt[0]])
+            for _ in range(2):  # second pass only if the first buffer was too small
+                oe, os_, ok_, ol_ = (np.empty(cap, dtype=np.int64), np.empty(cap), np.empty(cap, dtype=np.int64),
+                                     np.empty(cap))
+                _grid_crossings(a, c, g.xs, g.ys, oe, os_, ok_, ol_, cnt)
+                if cnt[0] <= cap:
+                    break
+                cap = int(cnt[0])
+            n_grid = int(cnt[0])
+            ev_edge.append(oe[:n_grid])
+            ev_s.append(os_[:n_grid])
             # crossings with other bodies' outlines (contact overlaps, touching bodies)
             for b2, p0, p1 in all_edges:
                 if b2 == b:
@@ -322,21 +333,24 @@ class CutState:
                     ev_s.append(sp[ok])
             E = np.concatenate(ev_edge)
             S = np.concatenate(ev_s)
+            n_other = len(E) - 2 * nE - n_grid
+            Kd = np.concatenate([np.full(2 * nE, END_FIXED), ok_[:n_grid], np.full(n_other, END_FIXED)])
+            Ln = np.concatenate([np.zeros(2 * nE), ol_[:n_grid], np.zeros(n_other)])
             order = np.lexsort((S, E))
-            E, S = E[order], S[order]
+            E, S, Kd, Ln = E[order], S[order], Kd[order], Ln[order]
             same = (E[1:] == E[:-1])
-            s0, s1, ee = S[:-1][same], S[1:][same], E[:-1][same]
-            keep = (s1 - s0) > 1e-13
-            s0, s1, ee = s0[keep], s1[keep], ee[keep]
-            rows.append((np.full(len(ee), b), ee, s0, s1))
+            keep = same & ((S[1:] - S[:-1]) > 1e-13)
+            i0 = np.nonzero(keep)[0]
+            rows.append((np.full(len(i0), b), E[i0], S[i0], S[i0 + 1], Kd[i0], Ln[i0], Kd[i0 + 1], Ln[i0 + 1]))
         if not rows:
-            self.segments = Segments(*(np.zeros(0, dtype=t) for t in (np.int64, np.int64, float, float, np.int64, bool,
-                                                                       bool)))
+            z, f = np.zeros(0, dtype=np.int64), np.zeros(0)
+            self.segments = Segments(z, z, f, f, z, np.zeros(0, bool), z, f, z, f, np.zeros(0, bool))
             return
         body = np.concatenate([r[0] for r in rows]).astype(np.int64)
         edge = np.concatenate([r[1] for r in rows]).astype(np.int64)
         s0 = np.concatenate([r[2] for r in rows])
         s1 = np.concatenate([r[3] for r in rows])
+        ends = [np.concatenate([r[k] for r in rows]) for k in (4, 5, 6, 7)]
         mid = np.empty((len(body), 2))
         nrm = np.empty((len(body), 2))
         for b, o in enumerate(self.outlines):
@@ -372,7 +386,8 @@ class CutState:
         # faces into the box: not outside it, nor lying on a box side with the box behind it
         x0, x1, y0, y1 = g.box
         inside = (probe[:, 0] > x0) & (probe[:, 0] < x1) & (probe[:, 1] > y0) & (probe[:, 1] < y1)
-        self.segments = Segments(body, edge, s0, s1, cell.astype(np.int64), fs.astype(bool), inside)
+        self.segments = Segments(body, edge, s0, s1, cell.astype(np.int64), fs.astype(bool), ends[0].astype(np.int64),
+                                 ends[1], ends[2].astype(np.int64), ends[3], inside)
 
     # ----------------------------------------------------------------- active set and faces
     def _build_active(self, keep_nodes: np.ndarray | None) -> None:

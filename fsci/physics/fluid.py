@@ -50,6 +50,64 @@ def _cell_geometry(xs, ys, nx, c):
 
 
 @njit(cache=True)
+def galerkin_density(N, dNx, Ve, Voe, Pe, gv, prm, b0, b1, out):
+    """Integrand of the Galerkin residual (22) at one point for the 12 test functions of a cell
+    (``out[3a + i]``: momentum of node a, component i; ``out[3a + 2]``: continuity), before the
+    quadrature weight. ``N``, ``dNx``: shape functions and physical gradients at the point;
+    ``Ve``, ``Voe``, ``Pe``: current and previous velocity, pressure at the nodes; ``b``: the
+    (time-weighted) body force density. Fills ``gv`` with the velocity gradient; returns the
+    velocity and pressure. One definition for the cell integrals and the shape derivative of the
+    cut (the integrand on the moving fluid boundary, :mod:`fsci.coupling.traction`)."""
+    rho = prm[P_RHO]
+    mu = prm[P_MU]
+    sym = prm[P_SYM]
+    mc = prm[P_MASS]
+    th = prm[P_THETA]
+    v0 = 0.0
+    v1 = 0.0
+    vo0 = 0.0
+    vo1 = 0.0
+    p = 0.0
+    go00 = 0.0
+    go01 = 0.0
+    go10 = 0.0
+    go11 = 0.0
+    gv[:] = 0.0
+    for a in range(4):
+        v0 += N[a] * Ve[a, 0]
+        v1 += N[a] * Ve[a, 1]
+        vo0 += N[a] * Voe[a, 0]
+        vo1 += N[a] * Voe[a, 1]
+        p += N[a] * Pe[a]
+        for j in range(2):
+            gv[0, j] += Ve[a, 0] * dNx[a, j]
+            gv[1, j] += Ve[a, 1] * dNx[a, j]
+        go00 += Voe[a, 0] * dNx[a, 0]
+        go01 += Voe[a, 0] * dNx[a, 1]
+        go10 += Voe[a, 1] * dNx[a, 0]
+        go11 += Voe[a, 1] * dNx[a, 1]
+    div = gv[0, 0] + gv[1, 1]
+    conv0 = v0 * gv[0, 0] + v1 * gv[0, 1]
+    conv1 = v0 * gv[1, 0] + v1 * gv[1, 1]
+    convo0 = vo0 * go00 + vo1 * go01
+    convo1 = vo0 * go10 + vo1 * go11
+    for a in range(4):
+        ra = 3 * a
+        # momentum, component 0 then 1
+        visc = (gv[0, 0] + sym * gv[0, 0]) * dNx[a, 0] + (gv[0, 1] + sym * gv[1, 0]) * dNx[a, 1]
+        visco = (go00 + sym * go00) * dNx[a, 0] + (go01 + sym * go10) * dNx[a, 1]
+        out[ra] = (mc * (v0 - vo0) * N[a] + th * (rho * conv0 * N[a] + mu * visc)
+                   + (1.0 - th) * (rho * convo0 * N[a] + mu * visco) - p * dNx[a, 0] - b0 * N[a])
+        visc = (gv[1, 0] + sym * gv[0, 1]) * dNx[a, 0] + (gv[1, 1] + sym * gv[1, 1]) * dNx[a, 1]
+        visco = (go10 + sym * go01) * dNx[a, 0] + (go11 + sym * go11) * dNx[a, 1]
+        out[ra + 1] = (mc * (v1 - vo1) * N[a] + th * (rho * conv1 * N[a] + mu * visc)
+                       + (1.0 - th) * (rho * convo1 * N[a] + mu * visco) - p * dNx[a, 1] - b1 * N[a])
+        # continuity
+        out[ra + 2] = div * N[a]
+    return v0, v1, p
+
+
+@njit(cache=True)
 def assemble_fluid_cells(xs, ys, nx, gcells, cell_ids, qptr, qx, qw, bq, V, P, Vo, prm,
                          gnode, pos, data, rhs, row_base, row_len, start, ndof, want_matrix):
     """Add the Galerkin terms of (22) for the cells ``cell_ids``.
@@ -73,7 +131,7 @@ def assemble_fluid_cells(xs, ys, nx, gcells, cell_ids, qptr, qx, qw, bq, V, P, V
     Voe = np.empty((4, 2))
     Pe = np.empty(4)
     gv = np.empty((2, 2))
-    gvo = np.empty((2, 2))
+    dens = np.empty(12)
     for k in range(len(cell_ids)):
         c = cell_ids[k]
         x0, y0, hx, hy = _cell_geometry(xs, ys, nx, c)
@@ -95,50 +153,9 @@ def assemble_fluid_cells(xs, ys, nx, gcells, cell_ids, qptr, qx, qw, bq, V, P, V
                 dNx[a, 0] = dN[a, 0] * 2.0 / hx
                 dNx[a, 1] = dN[a, 1] * 2.0 / hy
             w = qw[q]
-            v0 = 0.0
-            v1 = 0.0
-            vo0 = 0.0
-            vo1 = 0.0
-            p = 0.0
-            gv[:] = 0.0
-            gvo[:] = 0.0
-            for a in range(4):
-                v0 += N[a] * Ve[a, 0]
-                v1 += N[a] * Ve[a, 1]
-                vo0 += N[a] * Voe[a, 0]
-                vo1 += N[a] * Voe[a, 1]
-                p += N[a] * Pe[a]
-                for i in range(2):
-                    for j in range(2):
-                        gv[i, j] += Ve[a, i] * dNx[a, j]
-                        gvo[i, j] += Voe[a, i] * dNx[a, j]
-            div = gv[0, 0] + gv[1, 1]
-            conv0 = v0 * gv[0, 0] + v1 * gv[0, 1]
-            conv1 = v0 * gv[1, 0] + v1 * gv[1, 1]
-            convo0 = vo0 * gvo[0, 0] + vo1 * gvo[0, 1]
-            convo1 = vo0 * gvo[1, 0] + vo1 * gvo[1, 1]
-            for a in range(4):
-                ra = 3 * a
-                # momentum
-                for i in range(2):
-                    vi = v0 if i == 0 else v1
-                    voi = vo0 if i == 0 else vo1
-                    ci = conv0 if i == 0 else conv1
-                    coi = convo0 if i == 0 else convo1
-                    visc = 0.0
-                    visco = 0.0
-                    for j in range(2):
-                        visc += (gv[i, j] + sym * gv[j, i]) * dNx[a, j]
-                        visco += (gvo[i, j] + sym * gvo[j, i]) * dNx[a, j]
-                    Re[ra + i] += w * (
-                        mc * (vi - voi) * N[a]
-                        + th * (rho * ci * N[a] + mu * visc)
-                        + (1.0 - th) * (rho * coi * N[a] + mu * visco)
-                        - p * dNx[a, i]
-                        - bq[q, i] * N[a]
-                    )
-                # continuity
-                Re[ra + 2] += w * div * N[a]
+            v0, v1, p = galerkin_density(N, dNx, Ve, Voe, Pe, gv, prm, bq[q, 0], bq[q, 1], dens)
+            for a in range(12):
+                Re[a] += w * dens[a]
             if want_matrix:
                 for a in range(4):
                     ra = 3 * a
