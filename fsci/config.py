@@ -170,11 +170,15 @@ def apply_override(case: dict[str, Any], assignment: str) -> None:
     if "=" not in assignment:
         raise InputError("--set", assignment, "KEY=VALUE")
     key, text = assignment.split("=", 1)
-    key = key.strip()
-    value = _parse_value(text.strip())
+    set_value(case, key.strip(), _parse_value(text.strip()), "--set")
+
+
+def set_value(case: dict[str, Any], key: str, value: Any, source: str) -> None:
+    """Set the dotted ``key`` of a case dictionary (see :func:`apply_override`); ``source``
+    names where the assignment came from in error messages."""
     parts = _split_path(key)
     if not parts:
-        raise InputError("--set", assignment, "KEY=VALUE with a non-empty key")
+        raise InputError(source, f"{key}={value!r}", "KEY=VALUE with a non-empty key")
     if len(parts) == 1 and parts[0] not in case and parts[0] in case.get("parameters", {}):
         parts = ["parameters", parts[0]]
     node: Any = case
@@ -509,9 +513,33 @@ def read_quantity(t: Table) -> Quantity:
     return Quantity(name, kind, params)
 
 
+def apply_variant(case: dict[str, Any]) -> None:
+    """Apply the selected variant in place: ``variant = "name"`` picks the table
+    ``[variants.name]``, whose entries are ``--set``-style overrides (``"bodies.stamp.slip_length"
+    = "gap_law"``) applied before validation. One mechanism for every family of variants."""
+    variants = case.pop("variants", None)
+    name = case.pop("variant", None)
+    if variants is None:
+        if name is not None:
+            raise InputError("variant", name, "a [variants] table to choose from")
+        return
+    if not isinstance(variants, Mapping) or not variants:
+        raise InputError("variants", variants, "a table of named tables of overrides")
+    if name is None:
+        name = next(iter(variants))
+    if name not in variants:
+        raise InputError("variant", name, "one of " + ", ".join(variants))
+    overrides = variants[name]
+    if not isinstance(overrides, Mapping):
+        raise InputError(f"variants.{name}", overrides, "a table of KEY = VALUE overrides")
+    for key, value in overrides.items():
+        set_value(case, str(key), value, f"variants.{name}")
+
+
 def problem_from_dict(case: Mapping[str, Any], base_dir: Path | None = None) -> Problem:
     """Validate a case dictionary and build the :class:`Problem`."""
     case = copy.deepcopy(dict(case))
+    apply_variant(case)
     params_raw = case.get("parameters", {})
     if not isinstance(params_raw, Mapping):
         raise InputError("parameters", params_raw, "a table of numbers")

@@ -30,8 +30,8 @@ CASES: dict[str, BuiltinCase] = {
                                    turek_hron.csm3, "~25 s"),
     "turek-hron-fsi1": BuiltinCase("Turek-Hron FSI1: elastic bar behind a cylinder, steady, both embedded (CutFEM)",
                                    turek_hron.fsi1, "~90 s"),
-    "stamp-falling": BuiltinCase("Paper Sec. 4.1: rounded elastic stamp falling onto a rigid slab (until just "
-                                 "before contact)", stamp.stamp_falling, "~10 min"),
+    "stamp": BuiltinCase("Paper Sec. 4.1: rounded elastic stamp falls onto a rigid slab in fluid, rests, lifts off "
+                         "(--set variant=navslip|noslip|slip|noslip-incpen|navslip-incpen)", stamp.stamp, "~10 min"),
     "sinking-disk": BuiltinCase("Elastic disk sinking under gravity in quiescent fluid (monolithic FSI)",
                                 sinking_disk.sinking_disk, "~45 s"),
     "hertz": BuiltinCase("Hertz contact of a cylinder on a rigid flat (dry Nitsche contact)",

@@ -43,42 +43,48 @@ GAP_LAW = "gap_law"
 CASE_NAMES = ("I", "II", "III", "IV")
 
 
-def trace_constant(Xe: np.ndarray, edge: int, E: float, nu: float) -> float:
-    """λ_max of the trace inequality of one Q1 element and one of its edges (plane strain)."""
+def trace_constants(Xe: np.ndarray, edge: np.ndarray, E: float, nu: float) -> np.ndarray:
+    """λ_max of the trace inequality of Q1 elements ``Xe (k, 4, 2)`` and one edge of each
+    (local index ``edge (k,)``), plane strain, small-strain tangent (Remark 7):
+    ``∫_edge (n·σ(v)·n)² ds = λ ∫_element σ(v):ε(v) dV`` for v ⊥ rigid-body modes."""
+    k = len(Xe)
+    if k == 0:
+        return np.zeros(0)
     lam = E * nu / ((1 + nu) * (1 - 2 * nu))
     mu = E / (2 * (1 + nu))
     D = np.array([[lam + 2 * mu, lam, 0.0], [lam, lam + 2 * mu, 0.0], [0.0, 0.0, mu]])
 
-    def Bmat(xi):
-        _, dN = q1_eval(xi)
-        J = np.einsum("ad,qak->qdk", Xe, dN)
-        inv = np.linalg.inv(J)
-        dNx = np.einsum("qak,qkd->qad", dN, inv)
-        B = np.zeros((len(xi), 3, 8))
-        B[:, 0, 0::2] = dNx[:, :, 0]
-        B[:, 1, 1::2] = dNx[:, :, 1]
-        B[:, 2, 0::2] = dNx[:, :, 1]
-        B[:, 2, 1::2] = dNx[:, :, 0]
+    def Bmat(xi):  # xi (k, q, 2) -> B (k, q, 3, 8), det J (k, q)
+        r, s = xi[..., 0], xi[..., 1]
+        dN = 0.25 * np.stack([np.stack([-(1 - s), -(1 - r)], -1), np.stack([1 - s, -(1 + r)], -1),
+                              np.stack([1 + s, 1 + r], -1), np.stack([-(1 + s), 1 - r], -1)], axis=-2)
+        J = np.einsum("ead,eqak->eqdk", Xe, dN)
+        dNx = np.einsum("eqak,eqkd->eqad", dN, np.linalg.inv(J))
+        B = np.zeros(xi.shape[:2] + (3, 8))
+        B[..., 0, 0::2] = dNx[..., 0]
+        B[..., 1, 1::2] = dNx[..., 1]
+        B[..., 2, 0::2] = dNx[..., 1]
+        B[..., 2, 1::2] = dNx[..., 0]
         return B, np.linalg.det(J)
 
     xi, w = gauss_quad(2)
-    B, det = Bmat(xi)
-    K = np.einsum("q,qik,ij,qjl->kl", w * det, B, D, B)
+    B, det = Bmat(np.broadcast_to(xi, (k,) + xi.shape))
+    K = np.einsum("q,eq,eqik,ij,eqjl->ekl", w, det, B, D, B, optimize=True)
     a, b = edge, (edge + 1) % 4
     gx, gw = gauss_line(3)
     s = 0.5 * (gx + 1.0)
-    pts = (1 - s)[:, None] * tk.CORNERS[a] + s[:, None] * tk.CORNERS[b]
+    pts = (1 - s)[None, :, None] * tk.CORNERS[a][:, None, :] + s[None, :, None] * tk.CORNERS[b][:, None, :]
     Be, _ = Bmat(pts)
-    t = Xe[b] - Xe[a]
-    L = np.linalg.norm(t)
-    n = np.array([t[1], -t[0]]) / L
-    proj = np.array([n[0] ** 2, n[1] ** 2, 2 * n[0] * n[1]])
-    bvec = np.einsum("i,ij,qjk->qk", proj, D, Be)
-    A = np.einsum("q,qk,ql->kl", 0.5 * gw * L, bvec, bvec)
+    t = Xe[np.arange(k), b] - Xe[np.arange(k), a]
+    L = np.linalg.norm(t, axis=1)
+    n = np.column_stack([t[:, 1], -t[:, 0]]) / L[:, None]
+    proj = np.column_stack([n[:, 0] ** 2, n[:, 1] ** 2, 2 * n[:, 0] * n[:, 1]])
+    bvec = np.einsum("ei,ij,eqjk->eqk", proj, D, Be)
+    A = np.einsum("q,e,eqk,eql->ekl", 0.5 * gw, L, bvec, bvec, optimize=True)
     ev, V = np.linalg.eigh(K)
-    keep = ev > 1e-10 * ev.max()
-    Z = V[:, keep] / np.sqrt(ev[keep])[None, :]
-    return float(np.linalg.eigvalsh(Z.T @ A @ Z).max())
+    # the three rigid-body modes (the smallest eigenvalues, zero) are projected out
+    Z = V[:, :, 3:] / np.sqrt(ev[:, None, 3:])
+    return np.linalg.eigvalsh(np.einsum("eki,ekl,elj->eij", Z, A, Z))[:, -1]
 
 
 class CouplingTerm:
@@ -158,8 +164,7 @@ class CouplingTerm:
                 x = s.X + s.U
                 m = s.body.material
                 c = self._contact[k]
-                phi[c] = [trace_constant(x[s.mesh.cells[cc]], ll, m.E, m.nu)
-                          for cc, ll in zip(self._cell[k][c], self._local[k][c])]
+                phi[c] = trace_constants(x[s.mesh.cells[self._cell[k][c]]], self._local[k][c], m.E, m.nu)
             self.phi[k] = phi
 
     def _geometry_key(self, system) -> tuple:
