@@ -138,14 +138,14 @@ def test_newton_is_quadratic(follow):
 
 
 def test_stamp_falling_mass_balance_and_interface_flux_rate(tmp_path):
-    """Stamp on h = 1/16 and 1/32, t ∈ [0, 1] (Δt = 0.05): the discrete mass balance (46)
+    """Stamp (falling phase) on h = 1/16 and 1/32, t ∈ [0, 1] (Δt = 0.05): the discrete mass balance (46)
     holds to solver tolerance at every step and the stamp falls; the weak-imposition error
     Φ²_err = |Φ^S − Φ^F|, whose exact value is 0, converges: mean over the run 1.58e-5 →
     5.10e-6 (rate 1.63; 1.95 on to h = 1/64, docs/validation.md), asserted ≥ 1.45."""
     err2 = []
     for n in (16, 32):
         out = tmp_path / f"stamp{n}"
-        assert main(["run", "stamp-falling", "--set", f"n={n}", "--set", "time.segments=[{until=1.0, dt=0.05}]",
+        assert main(["run", "stamp", "--set", f"n={n}", "--set", "time.segments=[{until=1.0, dt=0.05}]",
                      "--set", "output.every=0", "--set", "output.figures=false", "--out", str(out)]) == 0
         rows = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
         phi = np.abs(rows["mass_phi_solid"]).max()
