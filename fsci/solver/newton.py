@@ -54,6 +54,7 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
     x = system.gather()
     lam = 1.0
     report = NewtonReport(False, 0)
+    linear.new_system()
     r0: dict[str, float] | None = None
     inc_norms: dict[str, float] | None = None
     totals: list[float] = []
