@@ -94,41 +94,12 @@ def test_case_iii_variants_differ_only_in_case_iii():
 
 
 def sweep(n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """An elastic block with a rounded bottom pushed (prescribed displacement of its dry top)
-    through fluid at ambient pressure onto a rigid slab, 1.37 times the initial gap, and pulled
-    back (navslip gap law on both surfaces): one step to 60 % of the push, then steps of
-    ``1/n_steps`` of the push to the full push and back to 60 %. Returns the load level, the total vertical interface force on the
-    block and the first Newton residual of every step."""
-    slab = {"name": "slab", "rigid": True, "extends_outside": True,
-            "material": {"law": "neo_hooke", "E": 1.0, "nu": 0.0},
-            "mesh": {"type": "rectangle", "x0": -0.2, "x1": 1.2, "y0": -0.3, "y1": 0.0137, "nx": 28, "ny": 3},
-            "dirichlet": [{"boundary": "body", "value": [0.0, 0.0]}], "interface": ["top"], "contact": ["top"],
-            "slip_length": "gap_law"}
-    round_bottom = [
-        {"line": [[0.3, 0.6], [0.3, 0.25]], "name": "left"},
-        {"arc": {"start": [0.3, 0.25], "center": [0.5, 0.25], "end": [0.5, 0.05]}, "name": "round"},
-        {"arc": {"start": [0.5, 0.05], "center": [0.5, 0.25], "end": [0.7, 0.25]}, "name": "round"},
-        {"line": [[0.7, 0.25], [0.7, 0.6]], "name": "right"},
-        {"line": [[0.7, 0.6], [0.3, 0.6]], "name": "top"},
-    ]
-    block = {"name": "block", "extends_outside": True,
-             "material": {"law": "neo_hooke", "E": 100.0, "nu": 0.3},
-             "mesh": {"type": "outline", "loops": [round_bottom], "h": 0.04},
-             "dirichlet": [{"boundary": "top", "value": [0.0, "-1.37*(0.05-0.0137)"],
-                            "function": {"type": "table", "times": [0.0, 1.0, 2.0], "values": [0.0, 1.0, 0.0]}}],
-             "interface": ["round", "left", "right"], "contact": ["round"], "slip_length": "gap_law"}
-    fluid = {"rho": 1.0, "mu": 1.0,
-             "grid": {"x": {"start": 0.0, "end": 1.0, "cells": 20}, "y": {"start": -0.1, "end": 0.5, "cells": 12}},
-             "dirichlet": [{"boundary": "top", "value": [0.0, 0.0]}],
-             "interface": {"freeze_cut_after": 40},
-             "neumann": [{"boundary": "left", "type": "pressure", "value": 1.0},
-                         {"boundary": "right", "type": "pressure", "value": 1.0}]}
-    case = {"name": "sweep", "bodies": [slab, block], "fluid": fluid,
-            "time": {"type": "static", "segments": [{"until": 0.6, "dt": 0.6},  # still 0.006 from the slab
-                                                    {"until": 1.4, "dt": 1.0 / n_steps}]},
-            "solver": {"tol_residual": 1e-10, "tol_increment": 1e-11, "max_iterations": 60},
-            "quantities": [{"name": "block", "type": "interface_summary", "body": "block"}],
-            "output": {"every": 0, "figures": False, "fields": False}}
+    """The built-in ``contact-sweep`` with steps of ``1/n_steps`` of the push. Returns the load
+    level, the total vertical interface force on the block and the first Newton residual of
+    every step."""
+    case = get_case("contact-sweep")
+    case["parameters"]["n"] = n_steps
+    case["output"] = {"every": 0, "figures": False, "fields": False}
     sim = Simulation(problem_from_dict(case))
     first = []
     sim.step_hooks.append(lambda s, ctx, rep: first.append(rep.residuals[0]))

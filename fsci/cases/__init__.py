@@ -45,6 +45,8 @@ CASES: dict[str, BuiltinCase] = {
                                    moving_cylinder.moving_cylinder, "~20 s"),
     "lift-off": BuiltinCase("Elastic block on a slab in fluid lifts off when the ambient pressure reaches its load "
                             "(FSCI, extension)", fsci_checks.lift_off, "~1 min"),
+    "contact-sweep": BuiltinCase("Quasi-static push through fluid onto a slab and back: continuity of the FSI -> "
+                                 "contact transition (FSCI)", fsci_checks.contact_sweep, "~20 s"),
     "blocks-film": BuiltinCase("Rounded block pressed through a fluid film onto another: contact forms, fluid "
                                "splits (FSCI)", fsci_checks.blocks_film, "~1 min"),
 }

@@ -8,6 +8,11 @@
   i.e. when ``p`` reaches ``q`` (uniform stress −q in the block): the block lifts off at
   ``p = q``. Without the extension (``fluid.interface.extension = false``) the block's bottom
   sees no fluid at all and never lifts off.
+* ``contact-sweep``: quasi-static — an elastic block with a rounded bottom is pushed
+  (prescribed displacement of its dry top) through fluid at ambient pressure onto a rigid slab,
+  to 1.37 times the initial gap, and pulled back: the FSI -> contact -> lift-off transition,
+  whose interface force and residual must vary continuously (steps of ``1/n`` of the push from
+  60 % of it).
 * ``blocks-film``: an elastic block with a rounded bottom pressed (prescribed displacement of
   its dry top) through a fluid film onto a second elastic block: the film thins, the Navier
   slip of the gap law (40) lets the fluid escape, the bodies touch, the contact zone spreads,
@@ -124,4 +129,46 @@ def blocks_film() -> dict[str, Any]:
             {"name": "mass", "type": "mass_balance"},
         ],
         "output": {"every": 5},
+    }
+
+
+def contact_sweep() -> dict[str, Any]:
+    slab = {"name": "slab", "rigid": True, "extends_outside": True,
+            "material": {"law": "neo_hooke", "E": 1.0, "nu": 0.0},
+            "mesh": {"type": "rectangle", "x0": -0.2, "x1": 1.2, "y0": -0.3, "y1": 0.0137, "nx": 28, "ny": 3},
+            "dirichlet": [{"boundary": "body", "value": [0.0, 0.0]}], "interface": ["top"], "contact": ["top"],
+            "slip_length": "gap_law"}
+    round_bottom = [
+        {"line": [[0.3, 0.6], [0.3, 0.25]], "name": "left"},
+        {"arc": {"start": [0.3, 0.25], "center": [0.5, 0.25], "end": [0.5, 0.05]}, "name": "round"},
+        {"arc": {"start": [0.5, 0.05], "center": [0.5, 0.25], "end": [0.7, 0.25]}, "name": "round"},
+        {"line": [[0.7, 0.25], [0.7, 0.6]], "name": "right"},
+        {"line": [[0.7, 0.6], [0.3, 0.6]], "name": "top"},
+    ]
+    block = {"name": "block", "extends_outside": True,
+             "material": {"law": "neo_hooke", "E": 100.0, "nu": 0.3},
+             "mesh": {"type": "outline", "loops": [round_bottom], "h": 0.04},
+             "dirichlet": [{"boundary": "top", "value": [0.0, "-1.37*(0.05-0.0137)"],
+                            "function": {"type": "table", "times": [0.0, 1.0, 2.0], "values": [0.0, 1.0, 0.0]}}],
+             "interface": ["round", "left", "right"], "contact": ["round"], "slip_length": "gap_law"}
+    return {
+        "name": "contact-sweep",
+        "kind": "fsci",
+        "description": "Quasi-static push of a rounded block through fluid onto a slab and back: continuity of "
+                       "the traction (27) through FSI -> contact -> lift-off",
+        "parameters": {"n": 40},
+        "bodies": [slab, block],
+        "fluid": {"rho": 1.0, "mu": 1.0,
+                  "grid": {"x": {"start": 0.0, "end": 1.0, "cells": 20}, "y": {"start": -0.1, "end": 0.5, "cells": 12}},
+                  "dirichlet": [{"boundary": "top", "value": [0.0, 0.0]}],
+                  "interface": {"freeze_cut_after": 40},
+                  "neumann": [{"boundary": "left", "type": "pressure", "value": 1.0},
+                              {"boundary": "right", "type": "pressure", "value": 1.0}]},
+        # one step to 60 % of the push (still clear of the slab), then steps of 1/n of it
+        "time": {"type": "static", "segments": [{"until": 0.6, "dt": 0.6}, {"until": 1.4, "dt": "=1/n"}]},
+        "solver": {"tol_residual": 1e-10, "tol_increment": 1e-11, "max_iterations": 60},
+        "quantities": [{"name": "block", "type": "interface_summary", "body": "block"},
+                       {"name": "uy_tip", "type": "point_displacement", "body": "block", "point": [0.5, 0.05],
+                        "component": 1}],
+        "output": {"every": 0},
     }

@@ -1,0 +1,66 @@
+"""Whole-run benchmarks: wall time, steps, Newton iterations, factorisations and the per-phase
+split of the runs in docs/performance.md, compared with the table recorded before the speed
+work (same rows, same commands).
+
+    python benchmarks/bench_runs.py                 # all rows (about 10 minutes on 2 cores)
+    python benchmarks/bench_runs.py --rows stamp-coarse fsi1
+    python benchmarks/bench_runs.py --help
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import time
+from concurrent.futures import ProcessPoolExecutor
+
+from fsci.cases import get_case
+from fsci.config import apply_override, problem_from_dict
+from fsci.simulation import Simulation
+
+# name -> (case, overrides, wall time [s] recorded before (docs/performance.md), steps, Newton)
+ROWS: dict[str, tuple[str, list[str], float, int, int]] = {
+    "stamp-coarse": ("stamp", ["time.segments=[{until=20.0, dt=0.01}, {until=250.0, dt=0.2}]"], 456.0, 3150, 13739),
+    "stamp-fine": ("stamp", ["n=64", "time.segments=[{until=5.0, dt=0.01}]"], 1450.0, 500, 2717),
+    "fsi1": ("turek-hron-fsi1", ["m=12", "nx=280", "ny=16"], 97.0, 2, 23),
+}
+
+
+def run_row(name: str) -> dict[str, float]:
+    """Run one row without file output; return its figures."""
+    case_name, overrides, *_ = ROWS[name]
+    case = get_case(case_name)
+    for o in overrides:
+        apply_override(case, o)
+    case["output"] = {"every": 0, "figures": False, "fields": False}
+    sim = Simulation(problem_from_dict(case))
+    t0 = time.perf_counter()
+    sim.run()
+    wall = time.perf_counter() - t0
+    lin = sim.linear
+    return {"wall": wall, "steps": sim.step, "newton": sim.newton_total, "unknowns": sim.system.layout.n_dofs,
+            "factorizations": lin.counts["factorization"], "reused": lin.counts.get("reused", 0),
+            "krylov": lin.counts.get("krylov", 0), **{k: v for k, v in sim.system.timings.items()},
+            **{k: v for k, v in lin.timings.items()},
+            "peak_rss_MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--rows", nargs="+", choices=list(ROWS), default=list(ROWS), help="rows to run (default: all)")
+    args = ap.parse_args(argv)
+    print("| run | unknowns | steps | Newton (per step) | factorisations (reused) | cut | assembly | analysis "
+          "| factor | solve | wall [s] | before [s] | speed-up | peak RSS [MB] |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for name in args.rows:
+        with ProcessPoolExecutor(max_workers=1) as pool:  # a fresh process per row: its own peak RSS
+            r = pool.submit(run_row, name).result()
+        before = ROWS[name][2]
+        print(f"| {name} | {r['unknowns']} | {r['steps']} | {r['newton']} ({r['newton'] / max(r['steps'], 1):.2f}) "
+              f"| {r['factorizations']} ({r['reused']}) | {r['cut']:.1f} | {r['assembly']:.1f} | {r['analysis']:.1f} "
+              f"| {r['factorization']:.1f} | {r['solve']:.1f} | {r['wall']:.0f} | {before:.0f} "
+              f"| {before / r['wall']:.2f} | {r['peak_rss_MB']:.0f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
