@@ -1,11 +1,18 @@
-"""Case files (TOML) → :class:`fsci.problem.Problem`, with validation and clear errors.
+"""Case files (TOML) → :class:`fsci.problem.Problem`.
 
-Every key is checked; a bad or unknown key raises :class:`fsci.errors.InputError` naming the
-dotted key, the value and what is allowed. ``--set KEY=VALUE`` overrides are applied to the
-dictionary before validation (:func:`apply_override`).
+Reading a case has three stages, all before anything runs or is written:
 
-A string value starting with ``=`` is a constant expression in the case's ``[parameters]``,
-e.g. ``mu = "=1/re"``; boundary values and loads may be expressions in ``x, y, t`` too.
+1. :func:`load_toml` reads the file (UTF-8 TOML, bounded nesting); ``--set KEY=VALUE``
+   overrides (:func:`apply_override`) and the selected variant (:func:`apply_variant`) are
+   applied to the dictionary;
+2. :func:`fsci.schema.validate` checks every key against the schema (types, ranges, unknown
+   keys with the closest valid name) and returns the normalised dictionary;
+3. the checks that relate tables to each other or need sizes and geometry: the step and
+   unknown limits (estimated before any mesh is built), the bodies' outlines against the fluid
+   box and each other, boundary and quantity names, references that name a result; then the
+   meshes and the :class:`Problem` are built.
+
+Every problem raises :class:`fsci.errors.InputError` naming the dotted key.
 """
 
 from __future__ import annotations
@@ -14,132 +21,73 @@ import copy
 import math
 import re
 import tomllib
+import warnings
 from pathlib import Path
-from typing import Any, Iterable, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
+import shapely
 
-from fsci.errors import InputError, MeshError
-from fsci.expressions import Expression, evaluate_parameter, make_scalar
+from fsci.errors import FsciWarning, InputError, MeshError
 from fsci.mesh import generate
 from fsci.mesh.gmsh_io import mesh_outline, read_msh
-from fsci.mesh.grid import SIDES, Grid
+from fsci.mesh.grid import Grid
 from fsci.mesh.quadmesh import QuadMesh
-from fsci.physics.materials import LAW_NAMES
 from fsci.problem import (
     Body, ContactSettings, Dirichlet, Fluid, InterfaceSettings, Material, Neumann, Output, Problem, Quantity, Reference,
     SolverSettings, Stabilization, TimeGrid, Verification,
 )
-from fsci.timefunc import make_time_function
+from fsci.schema import result_names, suggest, validate
+from fsci.timefunc import time_function
 
-QUANTITY_KINDS = (
-    "point_displacement", "body_force", "pressure_difference", "flow_rate", "oscillation",
-    "centerline_profiles", "vortex_center", "mass_balance", "body_moment", "contact_profile", "hertz_exact", "reaction",
-    "interface_summary", "fluid_pieces", "event", "value",
-)
+MAX_NESTING = 64  # tables/lists inside each other in a case file (a real case needs < 10)
+MAX_CASE_BYTES = 10_000_000
 
-
-class Table:
-    """Typed access to one TOML table that remembers which keys were read."""
-
-    def __init__(self, data: Any, path: str, params: Mapping[str, float]) -> None:
-        if not isinstance(data, Mapping):
-            raise InputError(path or "<case>", data, "a table")
-        self.data = data
-        self.path = path
-        self.params = params
-        self.used: set[str] = set()
-
-    def key(self, k: str) -> str:
-        return f"{self.path}.{k}" if self.path else k
-
-    def has(self, k: str) -> bool:
-        return k in self.data
-
-    def raw(self, k: str, default: Any = None) -> Any:
-        self.used.add(k)
-        return _evaluate_nested(self.data.get(k, default), self.params, self.key(k))
-
-    def num(self, k: str, default: float | None = None, *, lo: float | None = None, hi: float | None = None,
-            lo_open: bool = False, hi_open: bool = False, allowed: str | None = None) -> float:
-        v = self.raw(k, default)
-        if v is None:
-            raise InputError(self.key(k), None, "required number is missing")
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise InputError(self.key(k), v, "a finite number")
-        ok = True
-        if lo is not None:
-            ok &= v > lo if lo_open else v >= lo
-        if hi is not None:
-            ok &= v < hi if hi_open else v <= hi
-        if not ok:
-            if allowed is None:
-                left = "(" if lo_open else "["
-                right = ")" if hi_open else "]"
-                allowed = f"a number in {left}{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}{right}"
-            raise InputError(self.key(k), v, allowed)
-        return float(v)
-
-    def int(self, k: str, default: int | None = None, *, lo: int | None = None) -> int:
-        v = self.raw(k, default)
-        if isinstance(v, float) and v.is_integer():
-            v = int(v)
-        if isinstance(v, bool) or not isinstance(v, int):
-            raise InputError(self.key(k), v, "an integer")
-        if lo is not None and v < lo:
-            raise InputError(self.key(k), v, f"an integer ≥ {lo}")
-        return v
-
-    def str(self, k: str, default: str | None = None, choices: Iterable[str] | None = None) -> str:
-        v = self.raw(k, default)
-        if not isinstance(v, str):
-            raise InputError(self.key(k), v, "a string" if choices is None else "one of " + ", ".join(choices))
-        if choices is not None and v not in choices:
-            raise InputError(self.key(k), v, "one of " + ", ".join(choices))
-        return v
-
-    def bool(self, k: str, default: bool) -> bool:
-        v = self.raw(k, default)
-        if not isinstance(v, bool):
-            raise InputError(self.key(k), v, "true or false")
-        return v
-
-    def vec(self, k: str, default: Any = None, n: int = 2) -> np.ndarray:
-        v = self.raw(k, default)
-        if not isinstance(v, (list, tuple)) or len(v) != n:
-            raise InputError(self.key(k), v, f"a list of {n} numbers")
-        out = []
-        for i, x in enumerate(v):
-            x = evaluate_parameter(x, self.params, f"{self.key(k)}[{i}]")
-            if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
-                raise InputError(f"{self.key(k)}[{i}]", x, "a finite number")
-            out.append(float(x))
-        return np.array(out)
-
-    def table(self, k: str, default: Any = None) -> "Table":
-        v = self.raw(k, {} if default is None else default)
-        return Table(v, self.key(k), self.params)
-
-    def tables(self, k: str) -> list["Table"]:
-        v = self.raw(k, [])
-        if not isinstance(v, list):
-            raise InputError(self.key(k), v, "a list of tables")
-        return [Table(x, f"{self.key(k)}[{i}]", self.params) for i, x in enumerate(v)]
-
-    def done(self) -> None:
-        extra = sorted(set(self.data) - self.used)
-        if extra:
-            raise InputError(self.key(extra[0]), self.data[extra[0]],
-                             "unknown key (allowed here: " + ", ".join(sorted(self.used)) + ")")
+# --------------------------------------------------------------------------- reading
+def load_toml(path: str | Path) -> dict[str, Any]:
+    """Read a case file: UTF-8 TOML; unreadable, non-UTF-8, malformed or absurdly nested
+    files are reported with one line."""
+    p = Path(path)
+    try:
+        if p.is_dir():
+            raise InputError("case", str(path), "a TOML case file, not a directory")
+        if p.stat().st_size > MAX_CASE_BYTES:
+            raise InputError("case", str(path), f"a case file smaller than {MAX_CASE_BYTES // 1_000_000} MB")
+        data = p.read_bytes()
+    except OSError as exc:
+        raise InputError("case", str(path), f"a readable TOML file ({exc.strerror})") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError("case", str(path), f"a UTF-8 text file (byte {exc.start} is not UTF-8)") from None
+    _check_nesting(text, str(path))
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError("case", str(path), f"valid TOML ({exc})") from None
+    except RecursionError:
+        raise InputError("case", str(path), f"TOML nested at most {MAX_NESTING} levels deep") from None
 
 
-def _evaluate_nested(value: Any, params: Mapping[str, float], field: str) -> Any:
-    """Evaluate ``"=expr"`` strings anywhere inside lists and inline tables."""
-    if isinstance(value, list):
-        return [_evaluate_nested(v, params, f"{field}[{i}]") for i, v in enumerate(value)]
-    if isinstance(value, Mapping) and not isinstance(value, Table):
-        return {k: _evaluate_nested(v, params, f"{field}.{k}") for k, v in value.items()}
-    return evaluate_parameter(value, params, field)
+def _check_nesting(text: str, where: str) -> None:
+    """Reject inline arrays/tables nested deeper than :data:`MAX_NESTING` before parsing
+    (the parser and every later walk over the data recurse once per level)."""
+    depth = 0
+    in_str: str | None = None
+    for ch in text:
+        if in_str:
+            if ch == in_str or ch == "\n":
+                in_str = None
+        elif ch in "\"'":
+            in_str = ch
+        elif ch in "[{":
+            depth += 1
+            if depth > MAX_NESTING:
+                raise InputError("case", where, f"TOML nested at most {MAX_NESTING} levels deep")
+        elif ch in "]}":
+            depth = max(depth - 1, 0)
+        elif ch == "\n" and depth <= 2:  # a table header [a] / [[a]] closes on its own line
+            depth = 0
 
 
 # --------------------------------------------------------------------------- overrides
@@ -156,7 +104,7 @@ def _split_path(key: str) -> list[str | int]:
 def _parse_value(text: str) -> Any:
     try:
         return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
+    except (tomllib.TOMLDecodeError, RecursionError):
         return text
 
 
@@ -179,7 +127,8 @@ def set_value(case: dict[str, Any], key: str, value: Any, source: str) -> None:
     parts = _split_path(key)
     if not parts:
         raise InputError(source, f"{key}={value!r}", "KEY=VALUE with a non-empty key")
-    if len(parts) == 1 and parts[0] not in case and parts[0] in case.get("parameters", {}):
+    params = case.get("parameters", {})
+    if len(parts) == 1 and parts[0] not in case and isinstance(params, Mapping) and parts[0] in params:
         parts = ["parameters", parts[0]]
     node: Any = case
     for i, p in enumerate(parts[:-1]):
@@ -188,7 +137,9 @@ def set_value(case: dict[str, Any], key: str, value: Any, source: str) -> None:
             if isinstance(p, str):
                 match = [x for x in node if isinstance(x, dict) and x.get("name") == p]
                 if not match:
-                    raise InputError(key, value, f"unknown key: no entry named '{p}' in {where.rsplit('.', 1)[0]}")
+                    names = [str(x.get("name")) for x in node if isinstance(x, dict)]
+                    raise InputError(key, value, f"unknown key: no entry named '{p}' in {where.rsplit('.', 1)[0]}"
+                                     + suggest(p, names))
                 node = match[0]
             elif 0 <= p < len(node):
                 node = node[p]
@@ -209,310 +160,6 @@ def set_value(case: dict[str, Any], key: str, value: Any, source: str) -> None:
         raise InputError(key, value, "unknown key")
 
 
-def load_toml(path: str | Path) -> dict[str, Any]:
-    """Read a case file; malformed TOML is reported with line and column."""
-    p = Path(path)
-    try:
-        text = p.read_text()
-    except OSError as exc:
-        raise InputError("case", str(path), f"a readable TOML file ({exc.strerror})") from None
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError("case", str(path), f"valid TOML ({exc})") from None
-
-
-# --------------------------------------------------------------------------- pieces
-def read_time_function(t: Table, key: str = "function") -> Any:
-    return make_time_function(t.raw(key, None), t.key(key))
-
-
-def read_axis(t: Table, key: str) -> np.ndarray:
-    """A grid axis: ``{start, end, cells[, ratio]}``, ``{breaks, cells[, ratios]}`` or a list."""
-    v = t.raw(key)
-    if isinstance(v, list):
-        arr = np.array([float(evaluate_parameter(x, t.params, t.key(key))) for x in v])
-        if len(arr) < 2 or np.any(np.diff(arr) <= 0):
-            raise InputError(t.key(key), v, "strictly increasing coordinates")
-        return arr
-    a = Table(v, t.key(key), t.params)
-    if a.has("breaks"):
-        breaks = a.raw("breaks")
-        cells = a.raw("cells")
-        ratios = a.raw("ratios", [1.0] * (len(cells) if isinstance(cells, list) else 0))
-        if not (isinstance(breaks, list) and isinstance(cells, list) and len(breaks) == len(cells) + 1 == len(ratios) + 1):
-            raise InputError(a.key("breaks"), breaks, "'breaks' (k+1 values) with 'cells' and 'ratios' (k values)")
-        pieces = []
-        for i in range(len(cells)):
-            b0 = float(evaluate_parameter(breaks[i], t.params, a.key("breaks")))
-            b1 = float(evaluate_parameter(breaks[i + 1], t.params, a.key("breaks")))
-            n = evaluate_parameter(cells[i], t.params, a.key("cells"))
-            if isinstance(n, float) and n.is_integer():
-                n = int(n)
-            if isinstance(n, bool) or not isinstance(n, int) or n < 1 or b1 <= b0:
-                raise InputError(a.key("cells"), cells, "positive integers between increasing breaks")
-            pieces.append(generate.graded(b0, b1, n, float(ratios[i]))[(1 if i else 0):])
-        a.done()
-        return np.concatenate(pieces)
-    start = a.num("start")
-    end = a.num("end")
-    if end <= start:
-        raise InputError(a.key("end"), end, f"greater than start = {start}")
-    n = a.int("cells", lo=1)
-    ratio = a.num("ratio", 1.0, lo=0, lo_open=True)
-    a.done()
-    return generate.graded(start, end, n, ratio)
-
-
-def _curve(spec: Table):
-    """A side of a mapped mesh: ``{line = [[..],[..]]}`` or ``{arc = {start, center, end}}``."""
-    if spec.has("line"):
-        p = spec.raw("line")
-        try:
-            p0, p1 = np.asarray(p, float)
-        except (ValueError, TypeError):
-            raise InputError(spec.key("line"), p, "two points [[x0, y0], [x1, y1]]") from None
-        spec.done()
-        return lambda s: p0[None, :] + np.asarray(s)[:, None] * (p1 - p0)[None, :]
-    if spec.has("arc"):
-        a = spec.table("arc")
-        s0, c, s1 = a.vec("start"), a.vec("center"), a.vec("end")
-        a.done()
-        spec.done()
-        r = np.linalg.norm(s0 - c)
-        t0 = math.atan2(*(s0 - c)[::-1])
-        t1 = math.atan2(*(s1 - c)[::-1])
-        dt = (t1 - t0 + math.pi) % (2 * math.pi) - math.pi  # shorter arc
-        return lambda s: c[None, :] + r * np.column_stack([np.cos(t0 + dt * np.asarray(s)), np.sin(t0 + dt * np.asarray(s))])
-    raise InputError(spec.path, dict(spec.data), "a side needs 'line' or 'arc'")
-
-
-def read_mesh(t: Table, base_dir: Path | None) -> QuadMesh:
-    kind = t.str("type", choices=("rectangle", "rectilinear", "mapped", "outline", "disk", "file"))
-    if kind == "rectangle":
-        m = generate.rectangle(t.num("x0"), t.num("x1"), t.num("y0"), t.num("y1"), t.int("nx", lo=1), t.int("ny", lo=1))
-    elif kind == "rectilinear":
-        m = generate.rectilinear(read_axis(t, "x"), read_axis(t, "y"))
-    elif kind == "mapped":
-        sides = t.table("sides")
-        curves = {k: _curve(sides.table(k)) for k in ("bottom", "right", "top", "left")}
-        sides.done()
-        m = generate.mapped(curves["bottom"], curves["right"], curves["top"], curves["left"],
-                            t.int("nx", lo=1), t.int("ny", lo=1))
-    elif kind == "outline":
-        loops = t.raw("loops")
-        if not isinstance(loops, list) or not loops:
-            raise InputError(t.key("loops"), loops, "a list of closed loops of line/arc pieces")
-        hmax = t.num("h_max", 0.0, lo=0) if t.has("h_max") else None
-        refine = t.raw("refine", [])
-        if not isinstance(refine, list):
-            raise InputError(t.key("refine"), refine, "a list of {point, h, radius} tables")
-        m = mesh_outline(loops, t.num("h", lo=0, lo_open=True), h_max=hmax, refine=refine)
-    elif kind == "disk":
-        c = t.vec("center")
-        r = t.num("radius", lo=0, lo_open=True)
-        name = t.str("name", "surface")
-        pts = [c + r * np.array([math.cos(a), math.sin(a)]) for a in (0, math.pi / 2, math.pi, 3 * math.pi / 2)]
-        loop = [{"arc": {"start": pts[i].tolist(), "center": c.tolist(), "end": pts[(i + 1) % 4].tolist()}, "name": name}
-                for i in range(4)]
-        hmax = t.num("h_max", 0.0, lo=0) if t.has("h_max") else None
-        m = mesh_outline([loop], t.num("h", lo=0, lo_open=True), h_max=hmax)
-    else:
-        path = Path(t.str("path"))
-        if not path.is_absolute() and base_dir is not None:
-            path = base_dir / path
-        m = read_msh(str(path))
-    t.done()
-    try:
-        m.check(t.path)
-    except MeshError as exc:
-        raise InputError(t.path, kind, str(exc)) from None
-    return m
-
-
-def read_material(t: Table) -> Material:
-    law = t.str("law", "neo_hooke", choices=tuple(LAW_NAMES))
-    E = t.num("E", lo=0.0, lo_open=True, allowed="E > 0")
-    nu = t.num("nu", 0.0, lo=0.0, hi=0.5, hi_open=True, allowed="0 ≤ nu < 0.5")
-    rho = t.num("rho", 0.0, lo=0.0, allowed="rho ≥ 0")
-    t.done()
-    return Material(law, E, nu, rho)
-
-
-def _value_list(t: Table, key: str, n: int | None, allow_free: bool) -> list[Expression | None]:
-    v = t.raw(key)
-    items = v if isinstance(v, list) else [v]
-    if n is not None and len(items) != n:
-        free = ", or 'free'" if allow_free else ""
-        raise InputError(t.key(key), v, f"a list of {n} values (numbers or expressions{free})")
-    out: list[Expression | None] = []
-    for i, x in enumerate(items):
-        if allow_free and x == "free":
-            out.append(None)
-        else:
-            out.append(make_scalar(evaluate_parameter(x, t.params, f"{t.key(key)}[{i}]"), t.params, f"{t.key(key)}[{i}]"))
-    return out
-
-
-def read_dirichlet(t: Table, known: Iterable[str]) -> Dirichlet:
-    b = t.str("boundary")
-    if b not in known:
-        raise InputError(t.key("boundary"), b, "a boundary that exists (known: " + ", ".join(sorted(known)) + ")")
-    vals = _value_list(t, "value", 2, allow_free=True)
-    fn = read_time_function(t)
-    t.done()
-    return Dirichlet(b, vals, fn)
-
-
-def read_neumann(t: Table, known: Iterable[str]) -> Neumann:
-    b = t.str("boundary")
-    if b not in known:
-        raise InputError(t.key("boundary"), b, "a boundary that exists (known: " + ", ".join(sorted(known)) + ")")
-    kind = t.str("type", "traction", choices=("traction", "pressure"))
-    vals = _value_list(t, "value", 2 if kind == "traction" else 1, allow_free=False)
-    fn = read_time_function(t)
-    t.done()
-    return Neumann(b, kind, [v for v in vals if v is not None], fn)
-
-
-def read_body(t: Table, base_dir: Path | None) -> Body:
-    name = t.str("name")
-    mesh = read_mesh(t.table("mesh"), base_dir)
-    material = read_material(t.table("material"))
-    bf = _value_list(t, "body_force", 2, allow_free=False) if t.has("body_force") else None
-    bff = read_time_function(t, "body_force_function")
-    edge_names = set(mesh.edge_sets)
-    node_names = set(mesh.node_sets) | edge_names | {"body"}  # "body": every node
-    dirichlet = [read_dirichlet(d, node_names) for d in t.tables("dirichlet")]
-    neumann = [read_neumann(d, edge_names) for d in t.tables("neumann")]
-    rigid = t.bool("rigid", False)
-    slip = read_slip_length(t)
-    iv = _value_list(t, "interface_velocity", 2, allow_free=False) if t.has("interface_velocity") else None
-    outside = t.bool("extends_outside", False)
-    interface = t.raw("interface", None)
-    contact = t.raw("contact", None)
-    for key, val in (("interface", interface), ("contact", contact)):
-        if val is None:
-            continue
-        if not isinstance(val, list) or any(v not in edge_names for v in val):
-            raise InputError(t.key(key), val, "a list of edge sets of the body's mesh (known: " + ", ".join(sorted(edge_names)) + ")")
-    t.done()
-    return Body(name, mesh, material, bf, bff, dirichlet, neumann, interface, contact, rigid, slip, iv, outside)
-
-
-def read_slip_length(t: Table) -> float | Expression | str:
-    """Navier slip length: a number ≥ 0, "inf" (free slip), "gap_law" (the contact-gap law (40)
-    with ``fluid.interface.kappa0`` and ``slip_h``) or an expression in x, y, t."""
-    v = t.raw("slip_length", 0.0)
-    if isinstance(v, str) and v.strip().lower() in ("inf", "infinity"):
-        return math.inf
-    if isinstance(v, str) and v.strip() == "gap_law":
-        return "gap_law"
-    if isinstance(v, bool) or not isinstance(v, (int, float, str)):
-        raise InputError(t.key("slip_length"), v,
-                         "a slip length ≥ 0, \"inf\", \"gap_law\" or an expression in x, y, t")
-    if isinstance(v, str):
-        return make_scalar(v, t.params, t.key("slip_length"))
-    if not (v >= 0.0):
-        raise InputError(t.key("slip_length"), v, "a slip length κ ≥ 0 (0 = no slip, \"inf\" = free slip)")
-    return float(v)
-
-
-def read_fluid(t: Table) -> Fluid:
-    g = t.table("grid")
-    grid = Grid(read_axis(g, "x"), read_axis(g, "y"))
-    g.done()
-    rho = t.num("rho", lo=0, lo_open=True, allowed="rho > 0")
-    mu = t.num("mu", lo=0, lo_open=True, allowed="mu > 0")
-    form = t.str("viscous_form", "symmetric", choices=("symmetric", "laplace"))
-    bf = _value_list(t, "body_force", 2, allow_free=False) if t.has("body_force") else None
-    bff = read_time_function(t, "body_force_function")
-    dirichlet = [read_dirichlet(d, SIDES) for d in t.tables("dirichlet")]
-    neumann = [read_neumann(d, SIDES) for d in t.tables("neumann")]
-    pref = t.raw("pressure_reference", None)
-    pref_arr = None if pref is None else t.vec("pressure_reference")
-    s = t.table("stabilization")
-    st = Stabilization(
-        gamma_p=s.num("gamma_p", 0.25, lo=0), gamma_u=s.num("gamma_u", 0.25, lo=0),
-        gamma_div=s.num("gamma_div", 0.00025, lo=0), gamma_gp=s.num("gamma_gp", 0.5, lo=0),
-        gamma_gp_t=s.num("gamma_gp_t", 0.001, lo=0),
-        ghost_penalty=s.bool("ghost_penalty", True),
-    )
-    s.done()
-    it = t.table("interface")
-    iset = InterfaceSettings(
-        gamma_n=it.num("gamma_n", 35.0, lo=0, lo_open=True), gamma_t=it.num("gamma_t", 35.0, lo=0, lo_open=True),
-        trace_constant=it.num("trace_constant", 1.43426, lo=0, lo_open=True),
-        adjoint=it.str("adjoint", "skew", choices=("skew", "symmetric")),
-        island_factor=it.num("island_factor", 2.0, lo=0),
-        eps_geom=it.num("eps_geom", 1e-9, lo=0),
-        grow_only_after=it.int("grow_only_after", 5, lo=1),
-        freeze_cut_after=it.int("freeze_cut_after", 8, lo=1),
-        max_layout_changes=it.int("max_layout_changes", 5, lo=0),
-        kappa0=it.num("kappa0", 0.1, lo=0, allowed="κ0 ≥ 0"),
-        slip_h=it.num("slip_h", 0.0, lo=0, allowed="h ≥ 0 (0: the largest fluid cell side)"),
-        case_iii=it.str("case_iii", "remark6", choices=("remark6", "original")),
-        film_closure=it.num("film_closure", 1e-6, lo=0, hi=0.5),
-        extension=it.bool("extension", True),
-        shape_derivative=it.bool("shape_derivative", True),
-    )
-    it.done()
-    t.done()
-    return Fluid(grid, rho, mu, form, bf, bff, dirichlet, neumann, pref_arr, st, iset)
-
-
-def read_time(t: Table) -> TimeGrid:
-    kind = t.str("type", "transient", choices=("static", "transient"))
-    # θ = 0.5 (Crank-Nicolson) is second order but undamped: docs/validation.md "Time accuracy"
-    theta = t.num("theta", 1.0, lo=0.5, hi=1.0, allowed="theta in [0.5, 1]")
-    t0 = t.num("t_start", 0.0)
-    segs = []
-    if t.has("segments"):
-        for s in t.tables("segments"):
-            end = s.num("until")
-            dt = s.num("dt", lo=0, lo_open=True, allowed="dt > 0")
-            s.done()
-            if end <= (segs[-1][0] if segs else t0):
-                raise InputError(s.key("until"), end, "segment end times must increase beyond t_start")
-            segs.append((end, dt))
-    else:
-        end = t.num("t_end")
-        dt = t.num("dt", lo=0, lo_open=True, allowed="dt > 0")
-        if end <= t0:
-            raise InputError(t.key("t_end"), end, f"greater than t_start = {t0}")
-        segs.append((end, dt))
-    t.done()
-    return TimeGrid(kind, theta, t0, segs)
-
-
-def read_solver(t: Table) -> SolverSettings:
-    s = SolverSettings(
-        max_iterations=t.int("max_iterations", 25, lo=1),
-        min_iterations=t.int("min_iterations", 1, lo=1),
-        tol_residual=t.num("tol_residual", 1e-8, lo=0, lo_open=True),
-        tol_increment=t.num("tol_increment", 1e-8, lo=0, lo_open=True),
-        rtol_residual=t.num("rtol_residual", 1e-10, lo=0),
-        damping=t.bool("damping", True),
-        linear=t.str("linear", "auto", choices=("auto", "pardiso", "superlu")),
-        max_step_cuts=t.int("max_step_cuts", 6, lo=0),
-        step_cut_factor=t.num("step_cut_factor", 0.5, lo=0, hi=1, lo_open=True, hi_open=True),
-        dt_min=t.num("dt_min", 0.0, lo=0),
-        outer_tol=t.num("outer_tol", 1e-4, lo=0, lo_open=True),
-    )
-    t.done()
-    return s
-
-
-def read_quantity(t: Table) -> Quantity:
-    name = t.str("name")
-    kind = t.str("type", choices=QUANTITY_KINDS)
-    params = {k: evaluate_parameter(v, t.params, t.key(k)) for k, v in t.data.items() if k not in ("name", "type")}
-    if kind == "event" and "value" in params:  # the value reported at the event: an expression in t
-        params["value"] = make_scalar(params["value"], t.params, t.key("value"))
-    t.used |= set(t.data)
-    return Quantity(name, kind, params)
-
-
 def apply_variant(case: dict[str, Any]) -> None:
     """Apply the selected variant in place: ``variant = "name"`` picks the table
     ``[variants.name]``, whose entries are ``--set``-style overrides (``"bodies.stamp.slip_length"
@@ -527,8 +174,8 @@ def apply_variant(case: dict[str, Any]) -> None:
         raise InputError("variants", variants, "a table of named tables of overrides")
     if name is None:
         name = next(iter(variants))
-    if name not in variants:
-        raise InputError("variant", name, "one of " + ", ".join(variants))
+    if not isinstance(name, str) or name not in variants:
+        raise InputError("variant", name, "one of " + ", ".join(variants) + suggest(name, list(variants)))
     overrides = variants[name]
     if not isinstance(overrides, Mapping):
         raise InputError(f"variants.{name}", overrides, "a table of KEY = VALUE overrides")
@@ -536,75 +183,381 @@ def apply_variant(case: dict[str, Any]) -> None:
         set_value(case, str(key), value, f"variants.{name}")
 
 
+# --------------------------------------------------------------------------- meshes
+def axis_coordinates(a: Any) -> np.ndarray:
+    """Coordinates of a validated grid axis (a list, ``{start, end, cells, ratio}`` or
+    ``{breaks, cells, ratios}``)."""
+    if isinstance(a, list):
+        return np.asarray(a, dtype=float)
+    if "breaks" in a:
+        b, n, r = a["breaks"], a["cells"], a["ratios"]
+        return np.concatenate([generate.graded(b[i], b[i + 1], n[i], r[i])[(1 if i else 0):] for i in range(len(n))])
+    return generate.graded(a["start"], a["end"], a["cells"], a["ratio"])
+
+
+def _axis_cells(a: Any) -> int:
+    if isinstance(a, list):
+        return len(a) - 1
+    return sum(a["cells"]) if "breaks" in a else a["cells"]
+
+
+def curve(side: Mapping[str, Any]) -> Callable[[np.ndarray], np.ndarray]:
+    """A validated side of a mapped mesh (``line`` or ``arc``) as a map ``s ∈ [0, 1] → points``."""
+    if side.get("line") is not None:
+        p0, p1 = np.asarray(side["line"], dtype=float)
+        return lambda s: p0[None, :] + np.asarray(s)[:, None] * (p1 - p0)[None, :]
+    arc = side["arc"]
+    s0, c, s1 = (np.asarray(arc[k], dtype=float) for k in ("start", "center", "end"))
+    r = np.linalg.norm(s0 - c)
+    t0 = math.atan2(*(s0 - c)[::-1])
+    t1 = math.atan2(*(s1 - c)[::-1])
+    dt = (t1 - t0 + math.pi) % (2 * math.pi) - math.pi  # shorter arc
+    return lambda s: c[None, :] + r * np.column_stack([np.cos(t0 + dt * np.asarray(s)), np.sin(t0 + dt * np.asarray(s))])
+
+
+def _disk_loop(m: Mapping[str, Any]) -> list[dict[str, Any]]:
+    c, r = np.asarray(m["center"]), m["radius"]
+    pts = [c + r * np.array([math.cos(a), math.sin(a)]) for a in (0, math.pi / 2, math.pi, 3 * math.pi / 2)]
+    return [{"arc": {"start": pts[i].tolist(), "center": c.tolist(), "end": pts[(i + 1) % 4].tolist()}, "name": m["name"]}
+            for i in range(4)]
+
+
+def _outline_loops(m: Mapping[str, Any]) -> list[list[dict[str, Any]]]:
+    """Loops of an ``outline`` or ``disk`` mesh in the form :func:`mesh_outline` takes."""
+    if m["type"] == "disk":
+        return [_disk_loop(m)]
+    return [[{k: v for k, v in piece.items() if v is not None} for piece in loop] for loop in m["loops"]]
+
+
+def _sample(piece: Mapping[str, Any], n: int = 16) -> np.ndarray:
+    """Points along a line or arc piece (without its last point)."""
+    f = curve(piece)
+    return f(np.linspace(0.0, 1.0, n + 1)[:-1])
+
+
+def planned_outline(m: Mapping[str, Any]) -> shapely.Geometry | None:
+    """The region a validated mesh specification will cover (from its outline, before meshing);
+    ``None`` for a mesh file."""
+    kind = m["type"]
+    if kind == "rectangle":
+        return shapely.box(m["x0"], m["y0"], m["x1"], m["y1"])
+    if kind == "rectilinear":
+        x, y = axis_coordinates(m["x"]), axis_coordinates(m["y"])
+        return shapely.box(x[0], y[0], x[-1], y[-1])
+    if kind == "mapped":
+        s = m["sides"]
+        u = np.linspace(0.0, 1.0, 33)
+        ring = np.vstack([curve(s["bottom"])(u), curve(s["right"])(u), curve(s["top"])(u)[::-1], curve(s["left"])(u)[::-1]])
+        return shapely.Polygon(ring).buffer(0)
+    if kind in ("outline", "disk"):
+        rings = [np.vstack([_sample(p) for p in loop]) for loop in _outline_loops(m)]
+        shell = shapely.Polygon(rings[0]).buffer(0)
+        return shell.difference(shapely.union_all([shapely.Polygon(r).buffer(0) for r in rings[1:]])) if rings[1:] else shell
+    return None
+
+
+def estimated_nodes(m: Mapping[str, Any], region: shapely.Geometry | None) -> float:
+    """Nodes of a validated mesh specification, estimated before meshing (order of magnitude:
+    it guards against sizes no run can afford)."""
+    kind = m["type"]
+    if kind in ("rectangle", "mapped"):
+        return (m["nx"] + 1.0) * (m["ny"] + 1.0)
+    if kind == "rectilinear":
+        return (_axis_cells(m["x"]) + 1.0) * (_axis_cells(m["y"]) + 1.0)
+    if kind in ("outline", "disk") and region is not None:
+        h = m["h"]
+        cells = region.area / h**2
+        if m.get("h_max") is not None and m["h_max"] > h:  # a band of width ~4 h_max at size h, coarser inside
+            cells = min(cells, region.length * 4.0 * m["h_max"] / h**2 + region.area / m["h_max"] ** 2)
+        for ref in m.get("refine") or []:
+            cells += math.pi * (4.0 * ref["radius"]) ** 2 / ref["h"] ** 2
+        return cells
+    return 0.0
+
+
+def read_mesh(m: Mapping[str, Any], where: str, base_dir: Path | None) -> QuadMesh:
+    """Build the mesh of a validated mesh specification."""
+    kind = m["type"]
+    if kind == "rectangle":
+        mesh = generate.rectangle(m["x0"], m["x1"], m["y0"], m["y1"], m["nx"], m["ny"])
+    elif kind == "rectilinear":
+        mesh = generate.rectilinear(axis_coordinates(m["x"]), axis_coordinates(m["y"]))
+    elif kind == "mapped":
+        s = m["sides"]
+        mesh = generate.mapped(curve(s["bottom"]), curve(s["right"]), curve(s["top"]), curve(s["left"]), m["nx"], m["ny"])
+    elif kind in ("outline", "disk"):
+        try:
+            mesh = mesh_outline(_outline_loops(m), m["h"], h_max=m["h_max"], refine=m.get("refine") or [])
+        except InputError as exc:
+            raise InputError(f"{where}.{exc.field}", exc.value, exc.allowed) from None
+    else:
+        path = Path(m["path"])
+        if not path.is_absolute() and base_dir is not None:
+            path = base_dir / path
+        if not path.is_file():
+            raise InputError(f"{where}.path", m["path"], f"an existing gmsh .msh file (no file {path})")
+        try:
+            mesh = read_msh(str(path))
+        except (InputError, MeshError) as exc:
+            raise InputError(f"{where}.path", m["path"], getattr(exc, "allowed", str(exc))) from None
+    try:
+        mesh.check(where)
+    except MeshError as exc:
+        raise InputError(where, kind, str(exc)) from None
+    return mesh
+
+
+# --------------------------------------------------------------------------- bodies and fluid
+def _node_set(mesh: QuadMesh, name: str) -> np.ndarray:
+    if name == "body":
+        return np.arange(mesh.n_nodes)
+    if name in mesh.node_sets:
+        return np.asarray(mesh.node_sets[name])
+    return np.unique(mesh.edge_sets[name])
+
+
+def _dirichlet(d: Mapping[str, Any]) -> Dirichlet:
+    return Dirichlet(d["boundary"], d["value"], time_function(d["function"]))
+
+
+def _neumann(n: Mapping[str, Any]) -> Neumann:
+    return Neumann(n["boundary"], n["type"], n["value"], time_function(n["function"]))
+
+
+def _known(where: str, name: str, known: set[str], what: str) -> None:
+    if name not in known:
+        raise InputError(where, name, f"{what} (known: " + ", ".join(sorted(known)) + ")" + suggest(name, sorted(known)))
+
+
+def read_body(b: Mapping[str, Any], where: str, base_dir: Path | None) -> Body:
+    """Build a body from its validated table (its mesh included) and check its set names."""
+    mesh = read_mesh(b["mesh"], f"{where}.mesh", base_dir)
+    edge_names = set(mesh.edge_sets)
+    node_names = set(mesh.node_sets) | edge_names | {"body"}
+    for i, d in enumerate(b["dirichlet"]):
+        _known(f"{where}.dirichlet[{i}].boundary", d["boundary"], node_names, "a node or edge set of the body's mesh")
+    for i, n in enumerate(b["neumann"]):
+        _known(f"{where}.neumann[{i}].boundary", n["boundary"], edge_names, "an edge set of the body's mesh")
+    for key in ("interface", "contact"):
+        for s in b[key] or []:
+            _known(f"{where}.{key}", s, edge_names, "edge sets of the body's mesh")
+    mat = b["material"]
+    return Body(b["name"], mesh, Material(mat["law"], mat["E"], mat["nu"], mat["rho"]), b["body_force"],
+                time_function(b["body_force_function"]), [_dirichlet(d) for d in b["dirichlet"]],
+                [_neumann(n) for n in b["neumann"]], b["interface"], b["contact"], b["rigid"], b["slip_length"],
+                b["interface_velocity"], b["extends_outside"])
+
+
+def read_fluid(f: Mapping[str, Any]) -> Fluid:
+    """Build the fluid from its validated table."""
+    s, i = f["stabilization"], f["interface"]
+    pref = None if f["pressure_reference"] is None else np.asarray(f["pressure_reference"])
+    grid = Grid(axis_coordinates(f["grid"]["x"]), axis_coordinates(f["grid"]["y"]))
+    return Fluid(grid, f["rho"], f["mu"], f["viscous_form"], f["body_force"], time_function(f["body_force_function"]),
+                 [_dirichlet(d) for d in f["dirichlet"]], [_neumann(n) for n in f["neumann"]], pref,
+                 Stabilization(**s), InterfaceSettings(**i))
+
+
+# --------------------------------------------------------------------------- cross checks
+def _check_limits(v: Mapping[str, Any], regions: list[shapely.Geometry | None]) -> None:
+    """Step count and (estimated) unknowns against ``[limits]``, before any mesh is built."""
+    lim = v["limits"]
+    steps, last = 0.0, v["time"]["t_start"]
+    for i, s in enumerate(v["time"]["segments"]):
+        steps += math.ceil((s["until"] - last) / s["dt"] - 1e-9)
+        last = s["until"]
+        if steps > lim["max_steps"]:
+            key = "time.dt" if v["time"]["dt"] is not None else f"time.segments[{i}].dt"
+            raise InputError(key, s["dt"], f"at most limits.max_steps = {lim['max_steps']} steps (this grid has "
+                             f"{steps:.3g} or more; raise limits.max_steps to run it)")
+    parts: dict[str, float] = {}
+    if v["fluid"] is not None:
+        g = v["fluid"]["grid"]
+        parts["fluid.grid"] = 3.0 * (_axis_cells(g["x"]) + 1.0) * (_axis_cells(g["y"]) + 1.0)
+    for i, b in enumerate(v["bodies"]):
+        parts[f"bodies[{i}].mesh"] = 2.0 * estimated_nodes(b["mesh"], regions[i])
+    total = sum(parts.values())
+    if total > lim["max_unknowns"]:
+        key = max(parts, key=parts.get)
+        raise InputError(key, f"about {parts[key]:.3g} unknowns",
+                         f"at most limits.max_unknowns = {lim['max_unknowns']} unknowns in all (estimated "
+                         f"{total:.3g}; raise limits.max_unknowns to run it)")
+
+
+def _check_box(v: Mapping[str, Any], regions: list[shapely.Geometry | None]) -> None:
+    """Bodies inside the fluid box (unless ``extends_outside``) and not covering it."""
+    grid = v["fluid"]["grid"]
+    x, y = axis_coordinates(grid["x"]), axis_coordinates(grid["y"])
+    box = shapely.box(x[0], y[0], x[-1], y[-1])
+    tol = 1e-9 * max(x[-1] - x[0], y[-1] - y[0])
+    for i, (b, r) in enumerate(zip(v["bodies"], regions)):
+        if r is not None and not b["extends_outside"] and not box.buffer(tol).covers(r):
+            raise InputError(f"bodies[{i}].mesh", b["mesh"]["type"],
+                             f"a body inside the fluid box, but its outline leaves the fluid box [{x[0]:g}, {x[-1]:g}]"
+                             f" × [{y[0]:g}, {y[-1]:g}] (set bodies[{i}].extends_outside = true for a body meant to "
+                             f"cross it)")
+    known = [r for r in regions if r is not None]
+    if known and box.difference(shapely.union_all(known)).area <= 1e-9 * box.area:
+        raise InputError("bodies", [b["name"] for b in v["bodies"]], "bodies that leave fluid in the box "
+                         "(they cover the whole fluid box)")
+
+
+def _check_overlap(v: Mapping[str, Any], bodies: list[Body]) -> list[shapely.Geometry]:
+    """Bodies do not overlap at the start unless ``contact.allow_overlap``; returns their regions."""
+    from fsci.geometry.outlines import body_polygon
+
+    regions = []
+    for i, b in enumerate(bodies):
+        try:
+            regions.append(body_polygon(b.mesh.nodes, b.mesh.boundary_loops(), b.name))
+        except Exception as exc:  # GeometryError, MeshError: an unusable outline is bad input
+            raise InputError(f"bodies[{i}].mesh", b.mesh.n_cells, f"a mesh with a valid outline ({exc})") from None
+    if v["contact"]["allow_overlap"]:
+        return regions
+    for j in range(len(bodies)):
+        for i in range(j):
+            area = regions[i].intersection(regions[j]).area
+            if area > 1e-3 * min(regions[i].area, regions[j].area):
+                raise InputError(f"bodies[{j}].mesh", bodies[j].name,
+                                 f"a body not overlapping body '{bodies[i].name}' at the start (overlap area "
+                                 f"{area:.3g}; set contact.allow_overlap = true for pre-penetration)")
+    return regions
+
+
+def _check_probes(v: Mapping[str, Any], regions: list[shapely.Geometry]) -> None:
+    """Pressure probes lie in the fluid at the start (inside the box, outside every body)."""
+    grid = v["fluid"]["grid"] if v["fluid"] is not None else None
+    for i, q in enumerate(v["quantities"]):
+        if q["type"] != "pressure_difference" or grid is None:
+            continue
+        x, y = axis_coordinates(grid["x"]), axis_coordinates(grid["y"])
+        for k, p in enumerate(q["points"]):
+            pt = shapely.Point(p)
+            inside = x[0] <= p[0] <= x[-1] and y[0] <= p[1] <= y[-1]
+            if not inside or any(r.contains(pt) for r in regions):
+                raise InputError(f"quantities[{i}].points[{k}]", p, "a point in the fluid (inside the box, outside "
+                                 "every body)")
+
+
+def _check_dirichlet(owner: str, conds: list[Dirichlet], nodes_of: Callable[[str], np.ndarray], X: np.ndarray,
+                     times: tuple[float, ...]) -> None:
+    """Conditions that prescribe the same component twice on one boundary are an input error;
+    where two conditions on different boundaries give different values at shared nodes, warn
+    once which one wins (the one listed last)."""
+    conflicts = []
+    for j, dj in enumerate(conds):
+        for i in range(j):
+            di = conds[i]
+            comps = [c for c in (0, 1) if di.values[c] is not None and dj.values[c] is not None]
+            if not comps:
+                continue
+            if di.boundary == dj.boundary:
+                raise InputError(f"{owner}.dirichlet[{j}].boundary", dj.boundary,
+                                 f"a boundary whose components are prescribed once (also in dirichlet[{i}])")
+            shared = np.intersect1d(nodes_of(di.boundary), nodes_of(dj.boundary))
+            differ = [c for c in comps if len(shared) and any(
+                not np.allclose(di.values[c](X[shared, 0], X[shared, 1], t) * di.function(t),
+                                dj.values[c](X[shared, 0], X[shared, 1], t) * dj.function(t), rtol=1e-12, atol=1e-14)
+                for t in times)]
+            if differ:
+                conflicts.append(f"'{dj.boundary}' over '{di.boundary}' ({', '.join('xy'[c] for c in differ)} at "
+                                 f"{len(shared)} node{'s' if len(shared) > 1 else ''})")
+    if conflicts:
+        warnings.warn(f"{owner}.dirichlet: conditions differ at shared nodes, the one listed last wins: "
+                      + "; ".join(conflicts), FsciWarning, stacklevel=3)
+
+
+def _quantity(q: Mapping[str, Any]) -> Quantity:
+    params = {k: v for k, v in q.items() if k not in ("name", "type") and v is not None}
+    return Quantity(q["name"], q["type"], params)
+
+
+def _check_references(v: Mapping[str, Any]) -> None:
+    names: set[str] = set()
+    prefixes: list[str] = []
+    for q in v["quantities"]:
+        exact, pre = result_names(q)
+        names |= exact
+        prefixes += pre
+    contact = any(b["contact"] for b in v["bodies"])
+    for i, r in enumerate(v["reference"]):
+        n = r["name"]
+        if not (n in names or any(n.startswith(p) for p in prefixes) or (contact and n.startswith("case_"))):
+            raise InputError(f"reference[{i}].name", n, "the name of a result of the case's quantities"
+                             + suggest(n, sorted(names)))
+
+
+def _check_quantities(v: Mapping[str, Any]) -> None:
+    """Unique quantity names; quantities that use other quantities name existing ones."""
+    every = [q["name"] for q in v["quantities"]]
+    for i, q in enumerate(v["quantities"]):
+        earlier = every[:i]
+        if q["name"] in earlier:
+            raise InputError(f"quantities[{i}].name", q["name"], f"a name not used by another quantity "
+                             f"(quantities[{earlier.index(q['name'])}])")
+        refs = {"oscillation": [("of", every)],
+                "hertz_exact": [("contact", earlier)] + ([("P", earlier)] if isinstance(q.get("P"), str) else [])}
+        for key, known in refs.get(q["type"], []):
+            if q[key] is not None and q[key] not in known:
+                raise InputError(f"quantities[{i}].{key}", q[key], "the name of " + ("another" if known is every else
+                                 "an earlier") + " quantity" + suggest(q[key], known))
+
+
+# --------------------------------------------------------------------------- the problem
 def problem_from_dict(case: Mapping[str, Any], base_dir: Path | None = None) -> Problem:
-    """Validate a case dictionary and build the :class:`Problem`."""
+    """Validate a case dictionary and build the :class:`Problem` (see the module docstring)."""
     case = copy.deepcopy(dict(case))
     apply_variant(case)
-    params_raw = case.get("parameters", {})
-    if not isinstance(params_raw, Mapping):
-        raise InputError("parameters", params_raw, "a table of numbers")
-    params: dict[str, float] = {}
-    for k, v in params_raw.items():
-        v = evaluate_parameter(v, params, f"parameters.{k}")
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise InputError(f"parameters.{k}", v, "a number")
-        params[k] = v
-    top = Table(case, "", params)
-    top.used.add("parameters")
-    name = top.str("name")
-    description = top.str("description", "")
-    top.str("kind", "generic")  # informational: which built-in case family produced it
-    bodies = [read_body(b, base_dir) for b in top.tables("bodies")]
-    names = [b.name for b in bodies]
-    if len(set(names)) != len(names):
-        raise InputError("bodies.name", names, "unique body names")
-    fluid = read_fluid(top.table("fluid")) if top.has("fluid") else None
-    for i, b in enumerate(bodies):
-        if b.slip_length == "gap_law" and (fluid is None or not b.contact):
+    v = validate(case)
+    params = v["parameters"]
+    regions = [planned_outline(b["mesh"]) for b in v["bodies"]]
+    _check_limits(v, regions)
+    names = [b["name"] for b in v["bodies"]]
+    for i, n in enumerate(names):
+        if n in names[:i]:
+            raise InputError(f"bodies[{i}].name", n, "a name not used by another body")
+    if not v["bodies"] and v["fluid"] is None:
+        raise InputError("bodies", [], "at least one body or a [fluid] table")
+    for i, b in enumerate(v["bodies"]):
+        if b["slip_length"] == "gap_law" and (v["fluid"] is None or not b["contact"]):
             raise InputError(f"bodies[{i}].slip_length", "gap_law",
                              "the gap law (40) needs a [fluid] and 'contact' surfaces on the body")
-    if not bodies and fluid is None:
-        raise InputError("bodies", [], "at least one body or a [fluid] table")
-    time = read_time(top.table("time"))
-    solver = read_solver(top.table("solver"))
-    quantities = [read_quantity(q) for q in top.tables("quantities")]
-    refs = []
-    for r in top.tables("reference"):
-        refs.append(Reference(r.str("name"), r.num("value"), r.num("rtol", 0.01, lo=0), r.str("source", "")))
-        r.done()
-    c = top.table("contact")
-    contact = ContactSettings(
-        gamma0=c.num("gamma0", 1.0, lo=0, lo_open=True),
-        weighting=c.str("weighting", "harmonic", choices=("harmonic", "half")),
-        search_radius=c.num("search_radius", 0.0, lo=0),
-        n_gauss=c.int("n_gauss", 3, lo=1),
-        split=c.bool("split", True),
-        n_fixed=c.int("n_fixed", 10, lo=1),
-        self_contact=c.bool("self_contact", False),
+    if v["fluid"] is not None and v["bodies"]:
+        _check_box(v, regions)
+    _check_quantities(v)
+    _check_references(v)
+    bodies = [read_body(b, f"bodies[{i}]", base_dir) for i, b in enumerate(v["bodies"])]
+    fluid = read_fluid(v["fluid"]) if v["fluid"] is not None else None
+    _check_probes(v, _check_overlap(v, bodies))
+    t = v["time"]
+    times = (t["t_start"], t["segments"][-1]["until"])
+    for b in bodies:
+        _check_dirichlet(f"bodies.{b.name}", b.dirichlet, lambda s, m=b.mesh: _node_set(m, s), b.mesh.nodes, times)
+    if fluid is not None:
+        _check_dirichlet("fluid", fluid.dirichlet, fluid.grid.side_nodes, fluid.grid.nodes, times)
+    time = TimeGrid(t["type"], t["theta"], t["t_start"], [(s["until"], s["dt"]) for s in t["segments"]])
+    verification = None
+    if v["verified_at"] is not None:
+        verification = _verification(v["verified_at"], params)
+    c, o = v["contact"], v["output"]
+    return Problem(
+        v["name"], v["description"], bodies, fluid, time, SolverSettings(**v["solver"]),
+        [_quantity(q) for q in v["quantities"]],
+        [Reference(r["name"], r["value"], r["rtol"], r["source"]) for r in v["reference"]],
+        Output(o["every"], o["figures"], o["fields"], o["checkpoint_every"], o["checkpoint_minutes"]), case,
+        ContactSettings(c["gamma0"], c["weighting"], c["search_radius"], c["n_gauss"], c["split"], c["n_fixed"],
+                        c["self_contact"]),
+        verification,
     )
-    c.done()
-    verification = read_verified_at(top, params) if top.has("verified_at") else None
-    o = top.table("output")
-    output = Output(every=o.int("every", 1, lo=0), figures=o.bool("figures", True), fields=o.bool("fields", True),
-                    checkpoint_every=o.int("checkpoint_every", 0, lo=0))
-    o.done()
-    top.done()
-    return Problem(name, description, bodies, fluid, time, solver, quantities, refs, output, case, contact,
-                   verification)
 
 
-def read_verified_at(top: Table, params: Mapping[str, float]) -> Verification:
+def _verification(verified_at: Mapping[str, float], params: Mapping[str, float]) -> Verification:
     """``verified_at = { n = 40, ... }``: the parameter values at which the case's reference
     checks are verified (a test runs exactly these). A run whose parameters differ gets a
     one-line note (printed and recorded in results.json) instead of a silent pass or fail."""
-    v = top.raw("verified_at")
-    if not isinstance(v, Mapping) or not v:
-        raise InputError("verified_at", v, "a table of case parameters and the values they are verified at")
-    verified: dict[str, float] = {}
-    for k, x in v.items():
+    if not verified_at:
+        raise InputError("verified_at", {}, "a table of case parameters and the values they are verified at")
+    for k, x in verified_at.items():
         if k not in params:
             raise InputError(f"verified_at.{k}", x, "a name from [parameters] (known: " + ", ".join(params) + ")")
-        if isinstance(x, bool) or not isinstance(x, (int, float)):
-            raise InputError(f"verified_at.{k}", x, "a number")
-        verified[k] = x
-    return Verification(verified, {k: params[k] for k in verified if params[k] != verified[k]})
+    return Verification(dict(verified_at), {k: params[k] for k in verified_at if params[k] != verified_at[k]})

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from typing import Any
 
+MAX_VALUE_TEXT = 80  # characters of a value quoted in an error message
+
 
 class InputError(ValueError):
     """Invalid user input (case file, command-line override, mesh).
@@ -26,7 +28,10 @@ class InputError(ValueError):
         self.field = field
         self.value = value
         self.allowed = allowed
-        super().__init__(f"{field} = {value!r}: {allowed}")
+        text = repr(value)
+        if len(text) > MAX_VALUE_TEXT:  # a whole table or a long list: its start identifies it
+            text = text[:MAX_VALUE_TEXT - 3] + "..."
+        super().__init__(f"{field} = {text}: {allowed}")
 
 
 class SolverError(RuntimeError):

@@ -206,7 +206,8 @@ class Output:
     every: int = 1
     figures: bool = True
     fields: bool = True
-    checkpoint_every: int = 0  # steps between checkpoints (0: only at the end and on failure)
+    checkpoint_every: int = 0  # steps between checkpoints (0: by wall time only)
+    checkpoint_minutes: float = 5.0  # wall time between checkpoints (0: off); also at step cuts, signals, the end
 
 
 @dataclass

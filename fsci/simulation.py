@@ -5,16 +5,25 @@ A failing Newton solve restores the state of the step start and retries with a s
 ``solver.dt_min``); after success the step grows back towards the scheduled size. If the step
 cannot be completed, the results computed so far are written and
 :class:`fsci.errors.SolverError` is raised.
+
+Nothing is lost (docs/reliability.md): history.csv gets each step's row as the step completes;
+a checkpoint is written when ``output.checkpoint_minutes`` of wall time passed (and every
+``output.checkpoint_every`` steps if set), at every step-size cut, on an interrupt (SIGINT,
+SIGTERM: :class:`KeyboardInterrupt`), on failure and at the end; every file is replaced
+atomically.
 """
 
 from __future__ import annotations
 
-import csv
 import json
 import math
+import shutil
+import signal
+import threading
 import time
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterator
 
 import numpy as np
 
@@ -28,6 +37,14 @@ from fsci.solver.newton import NewtonReport, solve_nonlinear
 from fsci.system import System, restore, snapshot
 
 EPS_T = 1e-12
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM during :meth:`Simulation.run` (``signum`` says which)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
 
 
 class Simulation:
@@ -48,7 +65,11 @@ class Simulation:
         self.newton_total = 0
         self.dt_current: float | None = None
         self.wall_start = time.perf_counter()
+        self.last_checkpoint = self.wall_start
         self.writer = None
+        self.history_file = None
+        self.stop_signal: int | None = None  # a signal received outside a Newton solve, acted on after the step
+        self._in_solve = False
         self.step_hooks: list[Callable[["Simulation", StepContext, NewtonReport], None]] = []
 
     @classmethod
@@ -57,13 +78,12 @@ class Simulation:
         from fsci.config import apply_override, load_toml, problem_from_dict
         from fsci.io.checkpoint import read_checkpoint
         from fsci.io.vtk import VTKWriter
-        from fsci.system import restore
 
         out_dir = Path(out_dir)
+        state, meta = read_checkpoint(out_dir)
         case = load_toml(out_dir / "case.toml")
         for o in overrides or []:
             apply_override(case, o)
-        state, meta = read_checkpoint(out_dir)
         base = Path(meta["base_dir"]) if meta.get("base_dir") else None
         sim = cls(problem_from_dict(case, base), out_dir, monitor, base_dir=base)
         restore(sim.system, state)
@@ -117,11 +137,14 @@ class Simulation:
             saved = snapshot(self.system)
             ctx = StepContext(self.t, self.t + dt, dt, p.time.theta, static)
             try:
+                self._in_solve = True  # a signal now stops at once: the step start is restored
                 self.system.begin_step(ctx)
                 rep = self.solve_step(ctx)
             except KeyboardInterrupt:
                 restore(self.system, saved)  # back to the last completed step for the checkpoint
                 raise
+            finally:
+                self._in_solve = False
             self.newton_total += rep.iterations
             if rep.converged:
                 break
@@ -131,11 +154,9 @@ class Simulation:
             if self.monitor is not None:
                 self.monitor.message(f"step {self.step + 1} at t={self.t:.6g}: {rep.reason}; "
                                      f"retrying with dt={new_dt:.4g}")
+            if self.out_dir is not None:  # the last completed step, before a risky retry or the stop
+                self.checkpoint()
             if cuts > p.solver.max_step_cuts or new_dt < p.solver.dt_min:
-                if self.out_dir is not None:
-                    from fsci.io.checkpoint import write_checkpoint
-
-                    write_checkpoint(self, self.out_dir)
                 if self.system.fluid is not None and self.system.solids:
                     self.system.update_cut(keep_nodes=self.system.fluid.active)  # consistent outputs
                 raise SolverError(f"step {self.step + 1} at t = {self.t:.6g} failed after {cuts - 1} step cuts "
@@ -157,6 +178,22 @@ class Simulation:
             hook(self, ctx, rep)
         return ctx
 
+    def remaining_steps(self) -> int:
+        """Steps left on the time grid: each segment at its scheduled step size; after a
+        step-size cut the current step grows back as :meth:`advance` lets it."""
+        grow = 1.0 / self.problem.solver.step_cut_factor
+        t, n, d = self.t, 0, self.dt_current
+        for end, dt in self.problem.time.segments:
+            if t >= end - EPS_T * max(1.0, abs(end)):
+                continue
+            while d is not None and d < dt and t < end:
+                t, n, d = t + d, n + 1, min(dt, d * grow)
+            if t < end:
+                n += math.ceil((end - t) / dt - 1e-9)
+                t = end
+            d = None
+        return n
+
     def finished(self) -> bool:
         t_end = self.problem.time.t_end
         return self.t >= t_end - EPS_T * max(1.0, abs(t_end))
@@ -164,49 +201,84 @@ class Simulation:
     # ----------------------------------------------------------------- run
     def run(self) -> dict:
         """Run to the end time and write all outputs; returns the results dictionary."""
+        from fsci.io.history import HistoryFile
         from fsci.io.vtk import VTKWriter
 
         if self.out_dir is not None:
             self.out_dir.mkdir(parents=True, exist_ok=True)
+            self.history_file = HistoryFile(self.out_dir / "history.csv")
+            if self.history:  # resumed: the file may hold rows written after the checkpoint
+                self.history_file.rewrite(self.history)
             if self.problem.output.fields and self.writer is None:
                 self.writer = VTKWriter(self.out_dir)
                 if self.step == 0:
                     self.writer.write(self.system, self.t)
         if self.monitor is not None:
             self.monitor.start(self)
-        from fsci.io.checkpoint import write_checkpoint
-
         every = self.problem.output.every
         try:
-            self._loop(every)
+            with self._signals():
+                self._loop(every)
         except KeyboardInterrupt:
             if self.out_dir is not None:
-                write_checkpoint(self, self.out_dir)  # the last completed step
+                self.checkpoint()  # the last completed step
             raise
         finally:
             if self.monitor is not None:
                 self.monitor.stop(self)
-            if self.out_dir is not None:
-                self.write_history()
         if self.writer is not None and (every == 0 or self.step % every != 0):
             self.writer.write(self.system, self.t)
         if self.out_dir is not None:
-            write_checkpoint(self, self.out_dir)
+            self.checkpoint()
         return self.finalize()
 
-    def _loop(self, every: int) -> None:
-        """Steps to the end time with field output and periodic checkpoints."""
+    @contextmanager
+    def _signals(self) -> Iterator[None]:
+        """SIGINT and SIGTERM stop the run cleanly: inside a Newton solve at once (the step is
+        undone), otherwise after the current step and its outputs are complete."""
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+
+        def handler(signum: int, frame) -> None:
+            self.stop_signal = signum
+            if self._in_solve:
+                raise Interrupted(signum)
+
+        previous = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            yield
+        finally:
+            for s, h in previous.items():
+                signal.signal(s, h)
+
+    def checkpoint(self) -> None:
+        """Write a checkpoint of the current (completed) step."""
         from fsci.io.checkpoint import write_checkpoint
 
-        ck = self.problem.output.checkpoint_every
+        write_checkpoint(self, self.out_dir)
+        self.last_checkpoint = time.perf_counter()
+
+    def _loop(self, every: int) -> None:
+        """Steps to the end time with history rows, field output and periodic checkpoints."""
+        o = self.problem.output
         while not self.finished():
             self.advance()
+            if self.history_file is not None:
+                self.history_file.sync(self.history)
             if self.monitor is not None:
                 self.monitor.step_done(self)
             if self.writer is not None and every > 0 and self.step % every == 0:
                 self.writer.write(self.system, self.t)
-            if self.out_dir is not None and ck > 0 and self.step % ck == 0:
-                write_checkpoint(self, self.out_dir)
+            if self.out_dir is not None and self._checkpoint_due(o):
+                self.checkpoint()
+            if self.stop_signal is not None:
+                raise Interrupted(self.stop_signal)
+
+    def _checkpoint_due(self, o) -> bool:
+        by_steps = o.checkpoint_every > 0 and self.step % o.checkpoint_every == 0
+        by_time = o.checkpoint_minutes > 0 and time.perf_counter() - self.last_checkpoint >= 60.0 * o.checkpoint_minutes
+        return by_steps or by_time
 
     def results(self) -> dict:
         values = self.quantities.final_values(self.history, self.out_dir)
@@ -235,30 +307,27 @@ class Simulation:
         return res
 
     def finalize(self) -> dict:
+        """Results dictionary; with an output folder also results.json and the figures (drawn
+        into a temporary folder and moved in, so a failed figure leaves no partial file)."""
+        from fsci.io.atomic import write_text
+
         res = self.results()
         if self.out_dir is not None:
-            (self.out_dir / "results.json").write_text(json.dumps(res, indent=2) + "\n")
+            write_text(self.out_dir / "results.json", json.dumps(res, indent=2) + "\n")
             if self.problem.output.figures:
                 from fsci.post.figures import history_figures, state_figure
 
                 fig_dir = self.out_dir / "figures"
-                history_figures(self.history, fig_dir)
-                state_figure(self.system, fig_dir / "final_state.png", f"{self.problem.name}, t = {self.t:.4g}")
-                extra = getattr(self.problem, "figure_hooks", None)
-                for hook in extra or []:
-                    hook(self, fig_dir)
+                tmp = self.out_dir / ".figures.tmp"
+                shutil.rmtree(tmp, ignore_errors=True)
+                try:
+                    history_figures(self.history, tmp)
+                    state_figure(self.system, tmp / "final_state.png", f"{self.problem.name}, t = {self.t:.4g}")
+                    for hook in getattr(self.problem, "figure_hooks", None) or []:
+                        hook(self, tmp)
+                    fig_dir.mkdir(exist_ok=True)
+                    for f in sorted(tmp.iterdir()):
+                        f.replace(fig_dir / f.name)
+                finally:
+                    shutil.rmtree(tmp, ignore_errors=True)
         return res
-
-    def write_history(self) -> None:
-        if not self.history or self.out_dir is None:
-            return
-        keys: list[str] = []
-        for row in self.history:
-            for k in row:
-                if k not in keys:
-                    keys.append(k)
-        with open(self.out_dir / "history.csv", "w", newline="") as fh:
-            w = csv.DictWriter(fh, fieldnames=keys)
-            w.writeheader()
-            for row in self.history:
-                w.writerow({k: (f"{v:.12g}" if isinstance(v, float) else v) for k, v in row.items()})

@@ -1,18 +1,9 @@
 """Time functions used to scale loads and boundary values.
 
 All functions map time ``t`` to a scalar factor. A time function is described in a case file
-by a small table, e.g. ``{type = "ramp", t0 = 0, t1 = 2}``; :func:`make_time_function`
-turns that table into a callable and validates it.
-
-Types
------
-constant      f(t) = value (default 1)
-ramp          linear from 0 at t0 to 1 at t1, constant afterwards (and 0 before t0)
-table         piecewise-linear interpolation of ``times``/``values``; constant outside
-one_minus_cos ``0.5 (1 - cos(pi (t - t0)/(t1 - t0)))`` on [t0, t1], 1 after, 0 before
-              (Turek-Hron inflow ramp); with ``period`` instead of t1 the function is
-              periodic: ``1 - cos(2 pi (t - t0)/period)`` (the pump load of the paper, Sec. 4.2)
-linear        f(t) = slope * (t - t0) for t > t0, 0 before (the stamp's lifting load)
+by a small table, e.g. ``{type = "ramp", t0 = 0, t1 = 2}``, whose keys are defined in
+:data:`fsci.schema.TIME_FUNCTION`; :func:`time_function` turns a validated table into a
+callable (the forms and their keys are listed in docs/case-format.md).
 """
 
 from __future__ import annotations
@@ -23,11 +14,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from fsci.errors import InputError
-
 TimeFunction = Callable[[float], float]
-
-_TYPES = ("constant", "ramp", "table", "one_minus_cos", "linear")
 
 
 @dataclass(frozen=True)
@@ -87,19 +74,9 @@ class _Linear:
         return self.slope * (t - self.t0) if t > self.t0 else 0.0
 
 
-def _number(spec: Mapping[str, Any], key: str, field: str, default: float | None = None) -> float:
-    if key not in spec:
-        if default is None:
-            raise InputError(f"{field}.{key}", None, "required number is missing")
-        return default
-    value = spec[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise InputError(f"{field}.{key}", value, "a finite number is required")
-    return float(value)
-
-
 def make_time_function(spec: Any, field: str = "function") -> TimeFunction:
-    """Build a time function from its case-file description.
+    """Validate a time function's case-file description (:data:`fsci.schema.TIME_FUNCTION`)
+    and build it.
 
     Parameters
     ----------
@@ -113,43 +90,24 @@ def make_time_function(spec: Any, field: str = "function") -> TimeFunction:
     callable
         ``f(t) -> float``.
     """
+    from fsci.schema import TIME_FUNCTION, Context
+
+    return time_function(None if spec is None else TIME_FUNCTION.check(spec, field, Context()))
+
+
+def time_function(spec: float | Mapping[str, Any] | None) -> TimeFunction:
+    """The time function of a validated description (``None``, a number or a normalised table)."""
     if spec is None:
         return _Constant(1.0)
-    if isinstance(spec, (int, float)) and not isinstance(spec, bool):
-        return _Constant(float(spec))
     if not isinstance(spec, Mapping):
-        raise InputError(field, spec, "a number or a table with 'type' in " + ", ".join(_TYPES))
-    kind = spec.get("type")
-    if kind not in _TYPES:
-        raise InputError(f"{field}.type", kind, "one of " + ", ".join(_TYPES))
+        return _Constant(float(spec))
+    kind = spec["type"]
     if kind == "constant":
-        return _Constant(_number(spec, "value", field, 1.0))
+        return _Constant(spec["value"])
     if kind == "ramp":
-        t0 = _number(spec, "t0", field, 0.0)
-        t1 = _number(spec, "t1", field)
-        if t1 <= t0:
-            raise InputError(f"{field}.t1", t1, f"must be greater than t0 = {t0}")
-        return _Ramp(t0, t1)
+        return _Ramp(spec["t0"], spec["t1"])
     if kind == "table":
-        times = spec.get("times")
-        values = spec.get("values")
-        if not isinstance(times, list) or not isinstance(values, list) or len(times) != len(values) or len(times) < 1:
-            raise InputError(f"{field}.times", times, "two lists 'times' and 'values' of equal, non-zero length")
-        t = np.asarray(times, dtype=float)
-        if np.any(np.diff(t) <= 0):
-            raise InputError(f"{field}.times", times, "strictly increasing times")
-        return _Table(tuple(float(x) for x in times), tuple(float(x) for x in values))
+        return _Table(tuple(spec["times"]), tuple(spec["values"]))
     if kind == "one_minus_cos":
-        t0 = _number(spec, "t0", field, 0.0)
-        amp = _number(spec, "amplitude", field, 1.0)
-        if "period" in spec:
-            period = _number(spec, "period", field)
-            if period <= 0:
-                raise InputError(f"{field}.period", period, "must be positive")
-            return _OneMinusCos(t0, None, period, amp)
-        t1 = _number(spec, "t1", field)
-        if t1 <= t0:
-            raise InputError(f"{field}.t1", t1, f"must be greater than t0 = {t0}")
-        return _OneMinusCos(t0, t1, None, amp)
-    # linear
-    return _Linear(_number(spec, "slope", field, 1.0), _number(spec, "t0", field, 0.0))
+        return _OneMinusCos(spec["t0"], spec["t1"], spec["period"], spec["amplitude"])
+    return _Linear(spec["slope"], spec["t0"])

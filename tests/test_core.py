@@ -88,9 +88,9 @@ def test_structured_and_graded_meshes():
 def test_mapped_mesh_follows_an_arc():
     r = 0.05
     x0 = 0.2 + math.sqrt(r * r - 0.01 ** 2)
-    from fsci.config import Table, _curve
+    from fsci.config import curve
 
-    left = _curve(Table({"arc": {"start": [x0, 0.19], "center": [0.2, 0.2], "end": [x0, 0.21]}}, "left", {}))
+    left = curve({"arc": {"start": [x0, 0.19], "center": [0.2, 0.2], "end": [x0, 0.21]}})
     line = lambda a, b: (lambda s: np.asarray(a)[None] + np.asarray(s)[:, None] * (np.asarray(b) - np.asarray(a))[None])
     m = generate.mapped(line([x0, 0.19], [0.6, 0.19]), line([0.6, 0.19], [0.6, 0.21]), line([x0, 0.21], [0.6, 0.21]),
                         left, 20, 4)

@@ -43,6 +43,7 @@ def two_bodies_in_fluid(variant: str) -> tuple[System, StepContext, np.ndarray]:
                       dirichlet=[{"boundary": "left", "value": [1.0, 0.0]}])
     case = static_case([lower, upper], fluid)
     case["time"] = {"type": "transient", "theta": 1.0, "t_end": 0.1, "dt": 0.1}
+    case["contact"] = {**case.get("contact", {}), "allow_overlap": True}  # the overlap is the point of the state
     system = System(problem_from_dict(case))
     ctx = StepContext(0.0, 0.1, 0.1, 0.6, False)
     rng = np.random.default_rng(0)

@@ -1,9 +1,13 @@
-"""VTU/PVD output for ParaView (written with meshio).
+"""VTU/PVD output for ParaView (written with meshio); the content is described in
+docs/output.md.
 
 Per output time: one VTU per solid body (reference coordinates with point data
-``displacement`` and ``velocity`` — use "Warp By Vector" — and cell data ``cauchy_stress``)
-and one VTU of the fluid's ACTIVE cells (point data ``velocity``, ``pressure``). ``fields.pvd``
-lists all of them with their time and part number.
+``displacement`` and ``velocity`` — use "Warp By Vector" with ``displacement`` for the current
+configuration — and cell data ``cauchy_stress``), one VTU of the PHYSICAL fluid (uncut cells
+and the polygons of cut cells; coincident points are merged, so cells share their points and
+ParaView filters such as Plot Over Line and Stream Tracer work directly) and the meshes of
+coupling terms (interface pieces). ``fields.pvd`` lists all of them with their time and part
+number. Every file is written to a temporary name and renamed.
 """
 
 from __future__ import annotations
@@ -12,6 +16,26 @@ from pathlib import Path
 
 import meshio
 import numpy as np
+
+from fsci.io.atomic import replacing, write_text
+
+
+def _write(path: Path, mesh: meshio.Mesh) -> None:
+    with replacing(path) as tmp:
+        meshio.write(tmp, mesh, file_format="vtu", binary=True)
+
+
+def merge_points(mesh: meshio.Mesh, tol: float) -> meshio.Mesh:
+    """The same mesh with points closer than ``tol`` (on a grid of that spacing) merged; point
+    data of a merged point is taken from its first copy."""
+    if len(mesh.points) == 0:
+        return mesh
+    keys = np.round(mesh.points[:, :2] / tol).astype(np.int64)
+    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    cells = [(block.type, inverse[block.data]) for block in mesh.cells]
+    return meshio.Mesh(mesh.points[first], cells, point_data={k: np.asarray(v)[first] for k, v in mesh.point_data.items()},
+                       cell_data=mesh.cell_data)
 
 
 class VTKWriter:
@@ -26,50 +50,31 @@ class VTKWriter:
 
     def write(self, system, t: float) -> None:
         k = self.count
-        part = 0
+        meshes: list[tuple[str, meshio.Mesh]] = []
         for s in system.solids:
-            name = f"solid_{s.name}_{k:05d}.vtu"
-            mesh = meshio.Mesh(
+            meshes.append((f"solid_{s.name}", meshio.Mesh(
                 np.column_stack([s.X, np.zeros(s.n)]),
                 [("quad", s.mesh.cells)],
                 point_data={"displacement": np.column_stack([s.U, np.zeros(s.n)]),
                             "velocity": np.column_stack([s.V, np.zeros(s.n)])},
                 cell_data={"cauchy_stress": [s.cell_stress()]},
-            )
-            meshio.write(self.vtu_dir / name, mesh, file_format="vtu", binary=True)
-            self.entries.append((t, part, f"vtu/{name}"))
-            part += 1
+            )))
         if system.fluid is not None:
-            name = f"fluid_{k:05d}.vtu"
-            self._write_fluid(system, self.vtu_dir / name)
+            f = system.fluid
+            meshes.append(("fluid", merge_points(f.output_mesh(), 1e-9 * float(np.min(f.grid.cell_size)))))
+        for term in system.extra_terms:
+            if hasattr(term, "output_meshes"):
+                meshes += list(term.output_meshes(system))
+        for part, (tag, mesh) in enumerate(meshes):
+            name = f"{tag}_{k:05d}.vtu"
+            _write(self.vtu_dir / name, mesh)
             self.entries.append((t, part, f"vtu/{name}"))
-            part += 1
-        for term in getattr(system, "extra_terms", []):
-            for tag, mesh in term.output_meshes(system) if hasattr(term, "output_meshes") else []:
-                name = f"{tag}_{k:05d}.vtu"
-                meshio.write(self.vtu_dir / name, mesh, file_format="vtu", binary=True)
-                self.entries.append((t, part, f"vtu/{name}"))
-                part += 1
         self.count += 1
         self.write_pvd()
-
-    def _write_fluid(self, system, path: Path) -> None:
-        f = system.fluid
-        writer = getattr(f, "output_mesh", None)
-        if writer is not None:
-            mesh = writer()
-        else:
-            g = f.grid
-            cells = g.cells[f.int_cells]
-            v = np.where(f.active[:, None], f.V, np.nan)
-            p = np.where(f.active, f.P, np.nan)
-            mesh = meshio.Mesh(np.column_stack([g.nodes, np.zeros(g.n_nodes)]), [("quad", cells)],
-                               point_data={"velocity": np.column_stack([v, np.zeros(g.n_nodes)]), "pressure": p})
-        meshio.write(path, mesh, file_format="vtu", binary=True)
 
     def write_pvd(self) -> None:
         lines = ['<?xml version="1.0"?>', '<VTKFile type="Collection" version="0.1">', "  <Collection>"]
         for t, part, f in self.entries:
             lines.append(f'    <DataSet timestep="{t:.10g}" group="" part="{part}" file="{f}"/>')
         lines += ["  </Collection>", "</VTKFile>", ""]
-        (self.out_dir / "fields.pvd").write_text("\n".join(lines))
+        write_text(self.out_dir / "fields.pvd", "\n".join(lines))
