@@ -2,7 +2,7 @@
 
 Every ``--set`` with several comma-separated values is an axis of the study; the runs are the
 product of the axes, each a separate ``fsci run`` process in its own folder
-``OUT/<key>-<value>_...`` (log in ``OUT/logs``). All combinations are validated first, so bad
+``OUT/<key>=<value>_...`` (log in ``OUT/logs``). All combinations are validated first, so bad
 input stops the sweep before any run starts (exit 2). A folder whose results.json exists is
 not run again, one with a checkpoint is resumed, so an interrupted sweep continues where it
 stopped. The processes run locally (``--jobs`` at a time; PARDISO uses one thread below
@@ -60,6 +60,11 @@ def split_values(text: str) -> list[str]:
     return parts
 
 
+def _clean(value: str) -> str:
+    """A value as part of a folder name: anything but letters, digits, ``.+-`` becomes ``-``."""
+    return re.sub(r"-{2,}", "-", re.sub(r"[^A-Za-z0-9.+-]", "-", value)).strip("-") or "_"
+
+
 def plan(sets: list[str]) -> list[Run]:
     """The runs of a sweep: the product of every multi-valued ``KEY=V1,V2`` (in order)."""
     fixed: list[str] = []
@@ -75,7 +80,7 @@ def plan(sets: list[str]) -> list[Run]:
             fixed.append(f"{key}={text}")
     runs = []
     for combo in itertools.product(*[[(k, v) for v in vs] for k, vs in axes]):
-        name = "_".join(re.sub(r"[^A-Za-z0-9.+-]+", "-", f"{k}-{v}").strip("-") for k, v in combo) or "run"
+        name = "_".join(f"{k}={_clean(v)}" for k, v in combo) or "run"
         runs.append(Run(name, tuple(combo), tuple(fixed) + tuple(f"{k}={v}" for k, v in combo)))
     if len({r.name for r in runs}) != len(runs):
         raise InputError("--set", sets, "values that give distinct run folder names")
@@ -119,7 +124,7 @@ def summary(runs: list[Run], status: list[dict[str, Any]], out: Path) -> list[di
     """One row per run: swept values, exit status, checks, wall time, scalar results."""
     rows = []
     for r, st in zip(runs, status):
-        row: dict[str, Any] = {"run": r.name, **dict(r.values), "exit": st["exit"]}
+        row: dict[str, Any] = {"run": r.name, **dict(r.values), "exit": st["exit"], "action": st["action"]}
         p = out / r.name / "results.json"
         if p.is_file():
             res = json.loads(p.read_text())

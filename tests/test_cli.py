@@ -4,13 +4,17 @@ value, exit status 2, nothing written outside --out (and nothing at all for bad 
 from __future__ import annotations
 
 import json
+import tomllib
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
+import numpy as np
+
 from fsci.cli import main
+from fsci.config import problem_from_dict
 
 CASE = """
 name = "block"
@@ -165,3 +169,109 @@ def test_bad_verified_at_is_rejected(tmp_path, capsys, value, field):
                                                             f'verified_at = {value}')
     code, err, created = _run(["run", str(_write(tmp_path, text)), "--out", str(tmp_path / "o")], tmp_path, capsys)
     assert code == 2 and field in err and len(err.splitlines()) == 1 and not created
+
+
+def test_non_empty_output_folder_is_refused_and_overwrite_clears_it(tmp_path, capsys):
+    case = _write(tmp_path, CASE.format(E=10.0, nu=0.3, bnd="bottom"))
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "stale.vtu").write_text("old")
+    code = main(["run", str(case), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and "--out" in err and "--overwrite" in err and len(err.strip().splitlines()) == 1
+    assert [p.name for p in out.iterdir()] == ["stale.vtu"]  # untouched
+    assert main(["run", str(case), "--out", str(out), "--overwrite"]) == 0
+    assert not (out / "stale.vtu").exists() and (out / "results.json").exists()
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    assert main(["run", str(case), "--out", str(afile)]) == 2
+    assert "a folder" in capsys.readouterr().err and afile.read_text() == "x"
+
+
+def test_case_name_cannot_leave_results(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    case = _write(tmp_path, CASE.format(E=10.0, nu=0.3, bnd="bottom").replace('name = "block"', 'name = "../../x"'))
+    assert main(["run", str(case), "--set", "output.fields=false", "--set", "output.figures=false"]) == 0
+    assert (tmp_path / "results" / "x" / "results.json").exists()
+
+
+def test_failing_reference_check_exits_1_with_all_outputs(tmp_path, capsys):
+    text = CASE.format(E=10.0, nu=0.3, bnd="bottom") + '\n[[reference]]\nname = "uy"\nvalue = 1.0\nrtol = 0.01\n'
+    case = _write(tmp_path, text)
+    out = tmp_path / "out"
+    assert main(["run", str(case), "--out", str(out)]) == 1
+    assert "reference check failed: uy" in capsys.readouterr().err
+    res = json.loads((out / "results.json").read_text())
+    assert res["reference_checks"][0]["pass"] is False
+    assert (out / "history.csv").exists() and (out / "fields.pvd").exists() and (out / "figures").is_dir()
+    assert main(["run", str(case), "--out", str(tmp_path / "o2"), "--no-check"]) == 0
+
+
+def test_conflicting_dirichlet_values_warn_which_wins(tmp_path, capsys):
+    text = CASE.format(E=10.0, nu=0.3, bnd="bottom").replace(
+        'dirichlet = [ { boundary = "bottom", value = [0.0, 0.0] } ]',
+        'dirichlet = [ { boundary = "bottom", value = [0.0, 0.0] }, { boundary = "left", value = [0.01, "free"] } ]')
+    assert main(["run", str(_write(tmp_path, text)), "--out", str(tmp_path / "o")]) == 0
+    err = capsys.readouterr().err
+    warn = [line for line in err.splitlines() if "warning" in line]
+    assert len(warn) == 1 and "'left' over 'bottom' (x at 1 node)" in warn[0] and "listed last wins" in warn[0]
+    same = text.replace("value = [0.01, \"free\"]", "value = [0.0, \"free\"]")
+    assert main(["run", str(_write(tmp_path, same)), "--out", str(tmp_path / "o2")]) == 0
+    assert "warning" not in capsys.readouterr().err  # equal values at the shared node: nothing to say
+    twice = text.replace('value = [0.01, "free"]', 'value = [0.01, "free"] }, { boundary = "left", value = [0.0, 0.0]')
+    assert main(["run", str(_write(tmp_path, twice)), "--out", str(tmp_path / "o3")]) == 2
+    assert "dirichlet[2].boundary = 'left'" in capsys.readouterr().err
+
+
+def test_fluid_vtu_shares_points_between_uncut_cells(tmp_path):
+    """An uncut block of n × n fluid cells is written with its (n+1)² grid points, each shared by
+    the cells around it, so ParaView line plots and stream tracers work without a merge."""
+    import meshio
+
+    out = tmp_path / "cav"
+    assert main(["run", "cavity", "--set", "n=4", "--set", "time.dt=1.0", "--set", "output.figures=false",
+                 "--out", str(out)]) == 0
+    m = meshio.read(sorted((out / "vtu").glob("fluid_*.vtu"))[-1])
+    quads = m.cells_dict["quad"]
+    assert len(quads) == 16 and len(m.points) == 25
+    assert len(np.unique(quads)) == 25 and m.point_data["velocity"].shape == (25, 3)
+
+
+def test_eta_counts_the_steps_left_on_the_time_grid():
+    """Steps left: each segment at its own step size; after a step-size cut the reduced step
+    grows back by 1/step_cut_factor per step."""
+    from fsci.simulation import Simulation
+
+    case = tomllib.loads(CASE.format(E=10.0, nu=0.3, bnd="bottom"))
+    case["time"] = {"type": "static", "segments": [{"until": 1.0, "dt": 0.1}, {"until": 3.0, "dt": 0.5}]}
+    sim = Simulation(problem_from_dict(case))
+    assert sim.remaining_steps() == 14
+    sim.t, sim.step = 0.5, 5
+    assert sim.remaining_steps() == 9
+    sim.dt_current = 0.025  # cut twice: steps of 0.025 and 0.05 to 0.575, five of 0.1 to 1, four of 0.5
+    assert sim.remaining_steps() == 2 + 5 + 4
+
+
+def test_progress_line_fits_80_columns_and_shows_case_counts():
+    import io
+
+    from fsci.monitor import Monitor
+
+    class Sim:
+        t, step, dt_current = 123.456789, 12345, None
+        history = [{"case_I": 1234, "case_II": 56, "case_III": 7, "case_IV": 89}]
+
+        class problem:
+            name = "x"
+
+            class time:
+                t_end = 2500.0
+
+        def remaining_steps(self):
+            return 4000
+
+    mon = Monitor(io.StringIO(), live=False)
+    mon._res, mon._it = 1.234e-9, 12
+    mon.clock.per_step, mon.clock.steps = 0.9, 10
+    line = mon.line(Sim())
+    assert len(line) <= 79 and "ETA 1:00:00" in line and "I-IV 1234/56/7/89" in line, line
