@@ -102,6 +102,7 @@ def mesh_outline(loops: Sequence[Sequence[Mapping[str, Any]]], h: float, *, h_ma
             return point_tags[key]
 
         names: dict[str, list[int]] = defaultdict(list)
+        lengths: list[float] = []  # of every piece
         loop_tags = []
         for li, loop in enumerate(loops):
             curve_tags = []
@@ -110,6 +111,7 @@ def mesh_outline(loops: Sequence[Sequence[Mapping[str, Any]]], h: float, *, h_ma
                 if "line" in piece:
                     p0, p1 = piece["line"]
                     tag = geo.addLine(point(p0), point(p1))
+                    lengths.append(math.dist(p0, p1))
                 elif "arc" in piece:
                     arc = piece["arc"]
                     s, c, e = (np.asarray(arc[k], float) for k in ("start", "center", "end"))
@@ -117,6 +119,8 @@ def mesh_outline(loops: Sequence[Sequence[Mapping[str, Any]]], h: float, *, h_ma
                     if abs(r0 - r1) > 1e-9 * max(r0, 1.0):
                         raise InputError(field + ".arc", arc, "start and end must be equidistant from center")
                     tag = geo.addCircleArc(point(s), point(c), point(e))
+                    angle = math.acos(max(-1.0, min(1.0, float(np.dot(s - c, e - c)) / (r0 * r1))))
+                    lengths.append(r0 * angle)
                 else:
                     raise InputError(field, dict(piece), "a piece needs 'line' or 'arc'")
                 curve_tags.append(tag)
@@ -159,7 +163,11 @@ def mesh_outline(loops: Sequence[Sequence[Mapping[str, Any]]], h: float, *, h_ma
             gmsh.option.setNumber("Mesh.MeshSizeMin", 2 * min(float(r["h"]) for r in refine))
         if h_max is not None and h_max > h:
             dist = fields.add("Distance")
-            fields.setNumbers(dist, "CurvesList", [c[1] for c in gmsh.model.getEntities(1)])
+            curves = [c[1] for c in gmsh.model.getEntities(1)]
+            fields.setNumbers(dist, "CurvesList", curves)
+            # the distance is measured to sample points: closer than h apart, or the size at the
+            # outline grows between them (edges of 1.3 h observed with the default 20 per curve)
+            fields.setNumber(dist, "Sampling", max(20, math.ceil(2.0 * max(lengths) / h)))
             thr = fields.add("Threshold")
             fields.setNumber(thr, "InField", dist)
             fields.setNumber(thr, "SizeMin", 2 * h)
