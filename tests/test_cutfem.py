@@ -96,7 +96,7 @@ DISK_MMS_RATES = {
 def test_embedded_disk_manufactured_rates(which, adjoint):
     """Exact velocity imposed by Nitsche on the disk (skew or symmetric adjoint viscous term):
     velocity L2 ≈ 2, H1 ≈ 1, pressure ≈ 1.7-1.8, each asserted 0.2 below its measured rate."""
-    if which == "polynomial":  # VALIDATION.md 3.1 (Massing et al.); convection included
+    if which == "polynomial":  # Massing, Larson, Logg & Rognes (2014); convection included
         v = (20 * x * y ** 3, 5 * x ** 4 - 5 * y ** 4)
         p = 60 * x ** 2 * y - 20 * y ** 3
         mu = 1.0

@@ -1,4 +1,4 @@
-"""Dry contact cases (no fluid): Hertz (VALIDATION.md §4.1) and two blocks pressed together
+"""Dry contact cases (no fluid): Hertz (Johnson 1985, ch. 4) and two blocks pressed together
 to large strain and released."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Schäfer & Turek (1996) DFG flow around a cylinder, case 2D-1 (steady, Re = 20), with the
-cylinder *embedded* in the rectilinear background grid (not fitted): ../shared/VALIDATION.md §1.
+cylinder *embedded* in the rectilinear background grid (not fitted); sources in docs/validation.md.
 
 Channel [0, 2.2] × [0, 0.41], rigid cylinder of diameter D = 0.1 at (0.2, 0.2), rho = 1,
 mu = 1e-3, parabolic inflow with U_max = 0.3, do-nothing outflow (Laplace form of the viscous

@@ -1,11 +1,11 @@
-"""Turek & Hron (2006) benchmark cases (../shared/VALIDATION.md §2).
+"""Turek & Hron (2006) benchmark cases (bibliography in docs/validation.md).
 
 The elastic bar [0.2489..., 0.6] × [0.19, 0.21] is clamped on the arc of the cylinder
 (centre (0.2, 0.2), radius 0.05); the mapped mesh follows that arc exactly. Control point
 A = (0.6, 0.2). Material: St. Venant-Kirchhoff, rho_s = 1000, nu_s = 0.4,
 E_s = 1.4e6 (CSM1/CSM3), gravity 2 m/s² in -y.
 
-Reference values: FeatFlow finest rows (VALIDATION.md §2.3).
+Reference values: the finest-mesh FeatFlow values of Turek & Hron (2006).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The body-boundary quadrature of the coupling term, built once per geometry update.
 
-Every body's coupling boundary Γ (FORMULATION §1: its fluid interface edges, or its contact
+Every body's coupling boundary Γ (paper Sec. 2: its fluid interface edges, or its contact
 edges in a dry problem) is cut into straight *pieces*, each integrated with a Gauss rule. A
 piece knows, once, everything the traction kernel (:mod:`fsci.coupling.traction`) reads:
 

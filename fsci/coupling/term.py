@@ -1,5 +1,5 @@
 """The coupling term: every body boundary coupled to what lies beyond it — fluid, another body,
-or both (FORMULATION §4.4-4.6). Plain FSI and dry contact are its special cases.
+or both (paper Sec. 3.2-3.4.4). Plain FSI and dry contact are its special cases.
 
 Per geometry update (:meth:`CouplingTerm.pieces`) the body-boundary quadrature is built once
 (:mod:`fsci.coupling.points`); per assembly the per-piece arrays are gathered and the traction

@@ -1,4 +1,4 @@
-"""The interface traction of every body-boundary point (FORMULATION §4.4-4.6; paper (27)-(40)).
+"""The interface traction of every body-boundary point (paper Sec. 3.2-3.4.4, (27)-(40)).
 
 One kernel serves plain FSI, dry contact and fluid-structure-contact: at every Gauss point of a
 piece of a body's coupling boundary (straight, own outward normal ``n``) it evaluates both
@@ -23,7 +23,7 @@ length κ of the body, or of the gap law (40) ``κ = κ0 h (h/g_n − 1)`` for `
     σ_t = bet (t_F)_t + lam (v_rel)_t,   lam = μ/(κ + a),  bet = a/(κ + a),  eta = a κ/((κ + a) μ)
     fluid adjoint: + s_adj (μ(∇δv + s ∇δvᵀ) n, v^rel_n n + bet (v_rel)_t − eta (t_F)_t)
 
-Time levels (one-step-θ, FORMULATION §5.1): the fluid pressure is the implicit (n+θ) pressure of
+Time levels (one-step-θ, paper Sec. 3.4): the fluid pressure is the implicit (n+θ) pressure of
 the bulk, so it enters with weight ``w_p`` = 1; the viscous traction, the penalties, the contact
 stress and the adjoint terms are θ-weighted like the bulk viscous and solid internal forces
 (weight ``w_t``); the mass-conservation rows with weight ``w_c`` = 1. The old level is the same

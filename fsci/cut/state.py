@@ -1,4 +1,4 @@
-"""The cut of the background grid by the bodies (FORMULATION §4.3; paper Sec. 3.1.2-3.1.3).
+"""The cut of the background grid by the bodies (paper Sec. 3.1.2-3.1.3).
 
 One :class:`CutState` per geometry holds everything the fluid and coupling terms read:
 
@@ -150,7 +150,7 @@ class CutState:
     quad_degree
         Total polynomial degree integrated exactly on cut cells.
     keep_nodes
-        Nodes that must stay ACTIVE (solution-space update rule, FORMULATION §5.3).
+        Nodes that must stay ACTIVE (solution-space update rule, paper Sec. 3.4.3).
     film_closure
         Gaps between two different bodies thinner than ``2 film_closure × (smallest cell)`` are
         not fluid (closed contact whose discrete gap is slightly positive; see docs).

@@ -1,4 +1,4 @@
-"""Solution-space update (FORMULATION §5.3): values for newly ACTIVE background nodes.
+"""Solution-space update (paper Sec. 3.4.3): values for newly ACTIVE background nodes.
 
 A node that becomes ACTIVE gets the average of its already-known neighbours (the 8 grid
 neighbours); nodes with no known neighbour are filled in further sweeps, so the extension

@@ -1,7 +1,7 @@
 """Solid outlines in the current configuration.
 
 For every body: its boundary loops as a shapely polygon (outer loops counter-clockwise, holes
-clockwise), its coupling-interface edges Γ (FORMULATION §1) with their outward normals, and
+clockwise), its coupling-interface edges Γ (paper Sec. 2) with their outward normals, and
 the checks the cut relies on: no self-intersection, no escape from the fluid box (unless the
 body is declared to cross it), and a warning for bodies thinner than a fluid cell.
 """

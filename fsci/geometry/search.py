@@ -1,4 +1,4 @@
-"""Contact search (FORMULATION §3, paper (10)): for points on a body's potential-contact
+"""Contact search (paper Sec. 2.3, (10)): for points on a body's potential-contact
 boundary, the projection along the body's outward normal ``n`` onto the boundary segments of
 other bodies (or of the same body, for self contact).
 

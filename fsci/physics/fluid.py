@@ -1,4 +1,4 @@
-"""Incompressible Navier-Stokes on the rectilinear background grid (FORMULATION (22), §4.2).
+"""Incompressible Navier-Stokes on the rectilinear background grid (paper (22), Sec. 3.1-3.1.1).
 
 Unknowns per ACTIVE node: ``v_x, v_y, p``. One-step-theta residual (momentum, continuity)::
 

@@ -1,4 +1,4 @@
-"""Hyperelastic laws in plane strain (FORMULATION §2).
+"""Hyperelastic laws in plane strain (paper Sec. 2.1, (43)).
 
 Both laws return the in-plane second Piola-Kirchhoff stress ``S`` (2×2) and the material
 tangent in Voigt form ``D`` (3×3, order 11, 22, 12 with engineering shear) from the in-plane

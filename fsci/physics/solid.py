@@ -1,4 +1,4 @@
-"""Total-Lagrangian solid kernels (FORMULATION §2, weak form (21)).
+"""Total-Lagrangian solid kernels (paper Sec. 2.1, weak form (21)).
 
 Residual per body (one-step-theta, see :mod:`fsci.timeint`)::
 

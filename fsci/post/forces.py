@@ -2,7 +2,7 @@
 
 * Volume (Babuška-Miller / John) form: ``F·e = -R_bulk(w_e)`` where ``R_bulk`` is the fluid
   residual (Galerkin + stabilisation, no interface terms) and ``w_e = e`` on the nodes of the
-  cells that contain the body's wetted interface, 0 elsewhere (../shared/VALIDATION.md); the
+  cells that contain the body's wetted interface, 0 elsewhere (John 2004 computed the DFG values this way); the
   moment takes the rigid rotation ``w = e_z × (x − x_0)`` instead.
 * Traction form: ``∫_Γ^FS σ_Γ ds`` and ``∫_Γ^FS (x − x_0) × σ_Γ ds`` with the Nitsche interface
   traction σ_Γ (27), (37) — the negative of the interface contributions to the solid residual.

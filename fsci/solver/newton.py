@@ -1,4 +1,4 @@
-"""Monolithic damped Newton (paper (42), Sec. 3.4.1; FORMULATION §5.2).
+"""Monolithic damped Newton (paper (42), Sec. 3.4.1-3.4.2).
 
 Damping follows 4C's rule: the factor is 1 at the first iteration of a step, multiplied by
 0.75 when the residual norm grew, and otherwise raised again (divided by 0.875, or reset to 1
