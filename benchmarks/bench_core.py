@@ -69,7 +69,7 @@ def bench_system(label, case, overrides, static, repeat, superlu):
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--superlu", action="store_true", help="also time the SuperLU fallback")
     args = ap.parse_args()

@@ -22,7 +22,7 @@ from fsci.system import System
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--levels", type=int, nargs="+", default=[20, 40, 80])
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args()

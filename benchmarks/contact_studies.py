@@ -1,11 +1,12 @@
 """Contact studies for docs/validation.md: Hertz mesh convergence, γ0^S sweep (table and
 figure docs/figures/hertz_gamma_sweep.png) and the effect of split integration.
 
-Usage:  python benchmarks/contact_studies.py
+Usage:  python benchmarks/contact_studies.py [hertz] [gamma] [split]   (default: all three)
 """
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 import matplotlib
@@ -82,7 +83,13 @@ def split_effect():
         print(f"| {label} | {mis:.2%} | {r['run']['newton_iterations']} |", flush=True)
 
 
+STUDIES = {"hertz": hertz_convergence, "gamma": gamma_sweep, "split": split_effect}
+
 if __name__ == "__main__":
-    hertz_convergence()
-    gamma_sweep()
-    split_effect()
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("studies", nargs="*", metavar="STUDY", help="any of " + ", ".join(STUDIES) + " (default: all)")
+    chosen = ap.parse_args().studies or list(STUDIES)
+    if set(chosen) - set(STUDIES):
+        ap.error("unknown study: " + ", ".join(sorted(set(chosen) - set(STUDIES))))
+    for name in chosen:
+        STUDIES[name]()

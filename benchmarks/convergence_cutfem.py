@@ -58,7 +58,7 @@ def mms(levels, adjoint):
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser()
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--dfg", type=int, nargs="*", default=[10, 20, 40, 80])
     ap.add_argument("--mms", type=int, nargs="*", default=[8, 16, 32, 64, 128])
     ap.add_argument("--adjoint", choices=("skew", "symmetric"), default="skew", help="viscous adjoint of the Nitsche terms")

@@ -36,7 +36,7 @@ def bar_moments(sim: Simulation) -> str:
 
 REF = {"ux_A": 2.270493e-5, "uy_A": 8.208773e-4, "drag": 14.29426, "lift": 0.7637460}
 
-ap = argparse.ArgumentParser()
+ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
 ap.add_argument("--m", type=int, nargs="+", default=[4, 6, 8, 12, 16])
 ap.add_argument("--ny", type=int, default=16)
 ap.add_argument("--shift", type=float, default=0.0, help="band shift in cells (0 = bar surfaces on grid lines)")

@@ -7,7 +7,7 @@ Usage:  python benchmarks/fsi_figures.py sink [OUTDIR]
 
 from __future__ import annotations
 
-import sys
+import argparse
 from pathlib import Path
 
 import matplotlib
@@ -91,7 +91,15 @@ def stamp(dirs: list[Path]) -> None:
 
 
 if __name__ == "__main__":
-    if sys.argv[1] == "sink":
-        sink(Path(sys.argv[2]) if len(sys.argv) > 2 else Path("/tmp/sinking-disk"))
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="figure", required=True)
+    p = sub.add_parser("sink", help="run the sinking disk and draw its force history")
+    p.add_argument("out", nargs="?", type=Path, default=Path("results/sinking-disk-figure"),
+                   help="run directory (default: %(default)s)")
+    p = sub.add_parser("stamp", help="mass-balance errors of stamp runs against h")
+    p.add_argument("runs", nargs="+", type=Path, help="output directories of stamp runs")
+    a = ap.parse_args()
+    if a.figure == "sink":
+        sink(a.out)
     else:
-        stamp([Path(p) for p in sys.argv[2:]])
+        stamp(a.runs)
