@@ -250,10 +250,30 @@ def planned_outline(m: Mapping[str, Any]) -> shapely.Geometry | None:
         ring = np.vstack([curve(s["bottom"])(u), curve(s["right"])(u), curve(s["top"])(u)[::-1], curve(s["left"])(u)[::-1]])
         return shapely.Polygon(ring).buffer(0)
     if kind in ("outline", "disk"):
-        rings = [np.vstack([_sample(p) for p in loop]) for loop in _outline_loops(m)]
-        shell = shapely.Polygon(rings[0]).buffer(0)
-        return shell.difference(shapely.union_all([shapely.Polygon(r).buffer(0) for r in rings[1:]])) if rings[1:] else shell
+        rings = [shapely.Polygon(np.vstack([_sample(p) for p in loop])) for loop in _outline_loops(m)]
+        for k, r in enumerate(rings):
+            if not r.is_valid:  # gmsh may abort the process on a crossing outline
+                raise InputError(f"loops[{k}]", f"{len(m['loops'][k]) if 'loops' in m else 4} pieces",
+                                 "a closed loop that does not cross itself")
+        return rings[0].difference(shapely.union_all(rings[1:])) if rings[1:] else rings[0]
     return None
+
+
+MAX_COORDINATE = 1e12  # |x|, |y| of any point: beyond, areas and squared lengths lose all precision
+
+
+def region_of(m: Mapping[str, Any], where: str) -> shapely.Geometry | None:
+    """:func:`planned_outline` with its failures and absurd sizes reported as input errors."""
+    try:
+        with np.errstate(all="ignore"):  # absurd sizes are reported below, not as numpy warnings
+            r = planned_outline(m)
+    except InputError as exc:
+        raise InputError(f"{where}.{exc.field}", exc.value, exc.allowed) from None
+    except (shapely.errors.GEOSException, ValueError, FloatingPointError) as exc:
+        raise InputError(where, m["type"], f"a geometry that can be built ({exc})") from None
+    if r is not None and (r.is_empty or not np.all(np.abs(r.bounds) <= MAX_COORDINATE)):
+        raise InputError(where, m["type"], f"a region of positive area with coordinates within ±{MAX_COORDINATE:g}")
+    return r
 
 
 def estimated_nodes(m: Mapping[str, Any], region: shapely.Geometry | None) -> float:
@@ -332,6 +352,8 @@ def _known(where: str, name: str, known: set[str], what: str) -> None:
 def read_body(b: Mapping[str, Any], where: str, base_dir: Path | None) -> Body:
     """Build a body from its validated table (its mesh included) and check its set names."""
     mesh = read_mesh(b["mesh"], f"{where}.mesh", base_dir)
+    if not np.all(np.abs(mesh.nodes) <= MAX_COORDINATE):
+        raise InputError(f"{where}.mesh", b["mesh"]["type"], f"a mesh with coordinates within ±{MAX_COORDINATE:g}")
     edge_names = set(mesh.edge_sets)
     node_names = set(mesh.node_sets) | edge_names | {"body"}
     for i, d in enumerate(b["dirichlet"]):
@@ -510,7 +532,14 @@ def problem_from_dict(case: Mapping[str, Any], base_dir: Path | None = None) -> 
     apply_variant(case)
     v = validate(case)
     params = v["parameters"]
-    regions = [planned_outline(b["mesh"]) for b in v["bodies"]]
+    regions = [region_of(b["mesh"], f"bodies[{i}].mesh") for i, b in enumerate(v["bodies"])]
+    if v["fluid"] is not None:
+        for a in ("x", "y"):
+            if _axis_cells(v["fluid"]["grid"][a]) < 2:  # one cell has no interior node: nothing to solve
+                raise InputError(f"fluid.grid.{a}", _axis_cells(v["fluid"]["grid"][a]), "an axis of at least 2 cells")
+            c = axis_coordinates(v["fluid"]["grid"][a]) if _axis_cells(v["fluid"]["grid"][a]) < 1e7 else np.zeros(1)
+            if not np.all(np.abs(c[[0, -1]]) <= MAX_COORDINATE):
+                raise InputError(f"fluid.grid.{a}", [float(c[0]), float(c[-1])], f"coordinates within ±{MAX_COORDINATE:g}")
     _check_limits(v, regions)
     names = [b["name"] for b in v["bodies"]]
     for i, n in enumerate(names):

@@ -65,6 +65,7 @@ class VTKWriter:
         for term in system.extra_terms:
             if hasattr(term, "output_meshes"):
                 meshes += list(term.output_meshes(system))
+        meshes = [(tag, m) for tag, m in meshes if any(len(c.data) for c in m.cells)]  # meshio cannot write none
         for part, (tag, mesh) in enumerate(meshes):
             name = f"{tag}_{k:05d}.vtu"
             _write(self.vtu_dir / name, mesh)
