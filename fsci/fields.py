@@ -98,6 +98,12 @@ class SolidField:
         self.fixed = fixed
         self._neumann = [(self.mesh.edge_sets[nm.boundary], nm) for nm in body.neumann]
 
+    @property
+    def has_dofs(self) -> bool:
+        """False for a fully prescribed (rigid) body: it is placed at the start of every step
+        and carries no unknowns, so a finely meshed rigid body costs nothing in the solve."""
+        return not self.fixed.all()
+
     def _node_set(self, name: str) -> np.ndarray:
         if name == "body":
             return np.arange(self.n)

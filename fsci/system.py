@@ -143,6 +143,9 @@ class System:
         ndof = []
         offset = 0
         for s in self.solids:
+            if not s.has_dofs:  # fully prescribed: placed at every step start, no unknowns
+                s.gnode = np.full(s.n, -1, dtype=np.int64)
+                continue
             s.gnode = offset + np.arange(s.n, dtype=np.int64)
             offset += s.n
             ndof.append(np.full(s.n, 2))
@@ -155,7 +158,7 @@ class System:
             ndof.append(np.full(len(act), 3))
         self.layout = DofLayout(np.concatenate(ndof) if ndof else np.zeros(0, dtype=np.int64))
         st = self.layout.start
-        disp = [st[s.gnode][:, None] + np.arange(2)[None, :] for s in self.solids]
+        disp = [st[s.gnode][:, None] + np.arange(2)[None, :] for s in self.solids if s.has_dofs]
         self.field_dofs: dict[str, np.ndarray] = {}
         if disp:
             self.field_dofs["displacement"] = np.concatenate([d.ravel() for d in disp])
@@ -167,7 +170,8 @@ class System:
     def blocks(self) -> list[np.ndarray]:
         out = []
         for s in self.solids:
-            out += s.blocks()
+            if s.has_dofs:
+                out += s.blocks()
         if self.fluid is not None:
             out += self.fluid.blocks()
         for term in self.extra_terms:
@@ -179,6 +183,8 @@ class System:
         x = np.zeros(self.layout.n_dofs)
         st = self.layout.start
         for s in self.solids:
+            if not s.has_dofs:
+                continue
             i = st[s.gnode]
             x[i] = s.U[:, 0]
             x[i + 1] = s.U[:, 1]
@@ -194,6 +200,8 @@ class System:
     def scatter(self, x: np.ndarray) -> None:
         st = self.layout.start
         for s in self.solids:
+            if not s.has_dofs:
+                continue
             i = st[s.gnode]
             s.U[:, 0] = x[i]
             s.U[:, 1] = x[i + 1]
@@ -211,6 +219,8 @@ class System:
         dofs, vals = [], []
         st = self.layout.start
         for s in self.solids:
+            if not s.has_dofs:
+                continue
             nodes, comps, v = s.dirichlet_values(t)
             dofs.append(st[s.gnode[nodes]] + comps)
             vals.append(v)
@@ -272,7 +282,8 @@ class System:
         pattern = self.patterns.get(self.layout, self.blocks()) if want_matrix else None
         asm = Assembly(self.layout, pattern, want_matrix) if want_matrix else ResidualAssembly(self.layout)
         for s in self.solids:
-            s.assemble(asm, ctx)
+            if s.has_dofs:
+                s.assemble(asm, ctx)
         if self.fluid is not None:
             self.fluid.assemble(asm, ctx)
         for term in self.extra_terms:

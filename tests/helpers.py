@@ -24,7 +24,8 @@ def dof_fields(system) -> dict[str, np.ndarray]:
     """Global dofs of each field: ``u:<body>`` (displacement of one body, both components),
     ``v`` (fluid velocity, both components) and ``p`` (fluid pressure)."""
     st = system.layout.start
-    out = {f"u:{s.name}": np.sort(np.concatenate([st[s.gnode], st[s.gnode] + 1])) for s in system.solids}
+    out = {f"u:{s.name}": np.sort(np.concatenate([st[s.gnode], st[s.gnode] + 1])) for s in system.solids
+           if s.has_dofs}
     for name, key in (("v", "velocity"), ("p", "pressure")):
         if key in system.field_dofs:
             out[name] = np.sort(system.field_dofs[key])
@@ -34,7 +35,7 @@ def dof_fields(system) -> dict[str, np.ndarray]:
 def residual_terms(system) -> dict[str, object]:
     """The objects whose ``assemble`` ``System.assemble`` calls, by name: ``solid:<body>``,
     ``fluid`` and ``term<i>:<class>`` for ``system.extra_terms[i]`` (coupling terms)."""
-    terms: dict[str, object] = {f"solid:{s.name}": s for s in system.solids}
+    terms: dict[str, object] = {f"solid:{s.name}": s for s in system.solids if s.has_dofs}
     if system.fluid is not None:
         terms["fluid"] = system.fluid
     for i, t in enumerate(system.extra_terms):

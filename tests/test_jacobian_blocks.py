@@ -36,7 +36,9 @@ def _blob(E: float, rho_s: float, rho: float, mu: float, dt: float, theta: float
     """Elastic blob cut into a 5 x 5 grid of the unit box, random state and old level, step begun."""
     body = {"name": "blob", "material": {"law": "neo_hooke", "E": E, "nu": 0.4, "rho": rho_s},
             "mesh": {"type": "rectangle", "x0": 0.33, "x1": 0.71, "y0": 0.37, "y1": 0.62, "nx": 3, "ny": 2}}
-    fluid = fluid_box(5, mu=mu, rho=rho, dirichlet=[{"boundary": "left", "value": [1.0, 0.0]}])
+    # the cut stays frozen in these checks: the Jacobian without the cut's motion
+    fluid = fluid_box(5, mu=mu, rho=rho, interface={"shape_derivative": False},
+                      dirichlet=[{"boundary": "left", "value": [1.0, 0.0]}])
     case = static_case([body], fluid)
     case["time"] = {"type": "transient", "theta": theta, "t_end": dt, "dt": dt}
     system = System(problem_from_dict(case))

@@ -164,8 +164,9 @@ class QuantityEvaluator:
         """(solid field, nodes of the boundary, component) of a ``reaction`` quantity."""
         solids = {x.name: x for x in self.system.solids}
         body = q.params.get("body")
-        if body not in solids:
-            raise InputError(self._field(q, "body"), body, "one of " + ", ".join(solids))
+        if body not in solids or not solids[body].has_dofs:
+            raise InputError(self._field(q, "body"), body, "a body with unknowns (not fully prescribed): one of "
+                             + ", ".join(n for n, x in solids.items() if x.has_dofs))
         mesh = solids[body].mesh
         boundary = q.params.get("boundary")
         if boundary == "body":
