@@ -1,0 +1,151 @@
+"""Faults from outside: a run killed with SIGKILL between steps, inside a checkpoint write and
+while writing output resumes to exactly the result of an uninterrupted run; a damaged or
+mismatched checkpoint is refused with one line; SIGTERM stops cleanly with a checkpoint; a full
+disk gives exit 4 with a valid results.json and no partial file."""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fsci.cli import main
+from fsci.io.checkpoint import read_checkpoint
+
+SMALL = ["--set", "n=8", "--set", "time.dt=0.02", "--set", "time.t_end=0.12", "--set", "output.every=2",
+         "--set", "output.figures=false", "--set", "output.checkpoint_every=2"]
+
+# runs fsci in a child process that SIGKILLs itself at the chosen point
+KILLER = textwrap.dedent("""
+    import os, signal, sys
+    import fsci.io.atomic as atomic
+    import fsci.simulation as simulation
+    from fsci.cli import main
+
+    where, count = sys.argv[1], int(sys.argv[2])
+    calls = {"n": 0}
+
+    def hit():
+        calls["n"] += 1
+        if calls["n"] == count:
+            os.kill(os.getpid(), signal.SIGKILL)
+
+    if where == "step":  # before the count-th step (the previous one complete, history flushed)
+        real_advance = simulation.Simulation.advance
+        def advance(self):
+            hit()
+            return real_advance(self)
+        simulation.Simulation.advance = advance
+    else:  # inside the count-th atomic write of a file whose name contains `where`, before the rename
+        real_replace = os.replace
+        def replace(src, dst):
+            if where in str(dst):
+                hit()
+            return real_replace(src, dst)
+        atomic.os.replace = replace
+    sys.exit(main(sys.argv[3:]))
+""")
+
+
+def _killed(tmp_path: Path, where: str, count: int, out: Path) -> int:
+    script = tmp_path / "killer.py"
+    script.write_text(KILLER)
+    return subprocess.run([sys.executable, str(script), where, str(count), "run", "sinking-disk", *SMALL, "--out",
+                           str(out)], capture_output=True, text=True).returncode
+
+
+def _same(a: Path, b: Path) -> None:
+    sa, ma = read_checkpoint(a)
+    sb, mb = read_checkpoint(b)
+    assert ma["step"] == mb["step"] == 6
+    assert set(sa) == set(sb) and all(np.array_equal(sa[k], sb[k]) for k in sa)
+    assert ma["history"] == mb["history"]
+    assert (a / "history.csv").read_text() == (b / "history.csv").read_text()
+    ra, rb = (json.loads((d / "results.json").read_text()) for d in (a, b))
+    assert {k: v for k, v in ra.items() if k != "run"} == {k: v for k, v in rb.items() if k != "run"}
+    assert (a / "fields.pvd").read_text() == (b / "fields.pvd").read_text()
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("faults") / "full"
+    assert main(["run", "sinking-disk", *SMALL, "--out", str(out)]) == 0
+    return out
+
+
+@pytest.mark.parametrize("where, count", [("step", 4), ("checkpoint.npz", 2), (".vtu", None), ("history.csv", 1)],
+                         ids=["between steps", "inside a checkpoint write", "writing a VTU", "writing history.csv"])
+def test_sigkill_then_resume_equals_an_uninterrupted_run(tmp_path, reference, where, count):
+    if count is None:  # the first VTU of the output at step 4 (outputs at steps 0, 2, 4, 6; checkpoint at 2)
+        count = 2 * len(list((reference / "vtu").glob("*.vtu"))) // 4 + 1
+    out = tmp_path / "killed"
+    assert _killed(tmp_path, where, count, out) == -signal.SIGKILL
+    assert (out / "checkpoint.npz").exists() or where == "history.csv"
+    if not (out / "checkpoint.npz").exists():  # killed before the first checkpoint: nothing to resume
+        assert main(["resume", str(out)]) == 2
+        return
+    assert main(["resume", str(out)]) == 0
+    assert not list(out.glob(".*.tmp*"))  # the interrupted write's temporary file is gone
+    _same(reference, out)
+
+
+def test_damaged_or_mismatched_checkpoint_is_refused(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["run", "sinking-disk", *SMALL, "--set", "time.t_end=0.04", "--out", str(out)]) == 0
+    capsys.readouterr()
+    ck = out / "checkpoint.npz"
+    data = ck.read_bytes()
+    ck.write_bytes(data[: len(data) // 2])  # a torn file
+    assert main(["resume", str(out), "--set", "time.t_end=0.08"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "damaged" in err
+    ck.write_bytes(data)
+    (out / "case.toml").write_text((out / "case.toml").read_text().replace("mu = 0.05", "mu = 0.06"))
+    assert main(["resume", str(out), "--set", "time.t_end=0.08"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "case.toml" in err
+
+
+def test_sigterm_stops_cleanly_with_a_checkpoint(tmp_path):
+    out = tmp_path / "term"
+    args = [sys.executable, "-m", "fsci", "run", "sinking-disk", "--set", "n=8", "--set", "time.dt=0.01",
+            "--set", "output.figures=false", "--out", str(out)]
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while time.time() < deadline and not ((out / "history.csv").exists()
+                                          and len((out / "history.csv").read_text().splitlines()) >= 3):
+        time.sleep(0.2)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 128 + signal.SIGTERM, err
+    assert "fsci resume" in err
+    state, meta = read_checkpoint(out)
+    rows = (out / "history.csv").read_text().splitlines()
+    assert meta["step"] == len(rows) - 1 >= 2  # the checkpoint holds the last completed step
+
+
+def test_full_disk_exits_4_with_valid_results(tmp_path, monkeypatch, capsys):
+    """Writing the figures fails with ENOSPC: exit 4, results.json complete, no partial PNG."""
+    import matplotlib.figure
+
+    def no_space(self, fname, *args, **kwargs):
+        Path(fname).write_bytes(b"\x89PNG partial")
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(fname))
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", no_space)
+    out = tmp_path / "full"
+    code = main(["run", "two-blocks", "--set", "time.t_end=0.2", "--set", "time.dt=0.1", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 4 and "No space left on device" in err
+    res = json.loads((out / "results.json").read_text())
+    assert res["run"]["steps"] == 2
+    assert not list(out.rglob("*.png")) and not list(out.glob(".*"))
