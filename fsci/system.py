@@ -1,7 +1,7 @@
 """The monolithic discrete system: unknown layout, assembly of every term, Dirichlet rows.
 
 Unknowns are ``[u of body 0, u of body 1, ..., (v_x, v_y, p) of every ACTIVE fluid node]``
-(FORMULATION §4.1 "one set of fluid dofs per background node"). Dirichlet rows are replaced by identity rows, the same way for every
+(paper Sec. 3.1: one set of fluid dofs per background node). Dirichlet rows are replaced by identity rows, the same way for every
 field. Their residual is ``x_D - x_D(prescribed)``, so the first Newton increment carries the
 change of the boundary values into the interior (consistent Dirichlet predictor).
 """
@@ -51,7 +51,7 @@ class System:
     @staticmethod
     def _interface_edges(s: SolidField) -> np.ndarray:
         """Coupling-interface edges Γ of a body: its ``interface`` sets, or every boundary edge
-        that carries no Neumann load (FORMULATION §1)."""
+        that carries no Neumann load (paper Sec. 2)."""
         body = s.body
         if body.interface is not None:
             return np.vstack([s.mesh.edge_sets[n] for n in body.interface])
