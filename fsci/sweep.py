@@ -130,6 +130,8 @@ def summary(runs: list[Run], status: list[dict[str, Any]], out: Path) -> list[di
             res = json.loads(p.read_text())
             checks = res.get("reference_checks", [])
             row["checks"] = ("ok" if all(c["pass"] for c in checks) else "FAIL") if checks else ""
+            if checks and res.get("verification", {}).get("verified") is False:
+                row["checks"] = "unverified"  # off the case's verified setting the checks do not apply
             row["wall_time"] = round(res["run"]["wall_time"], 1)
             row.update({k: v for k, v in res.items() if isinstance(v, (int, float)) and not isinstance(v, bool)})
         rows.append(row)
