@@ -78,6 +78,58 @@ def _raster_edges(p0, p1, xs, ys, tol, mark):
 
 
 @njit(cache=True)
+def _crossed_cells(a, b, xs, ys, crossed):
+    """Mark cells whose open interior segment a->b may meet. Exact in the direction that
+    matters: an unmarked cell is certainly not met (the segment lies in a closed half-plane
+    outside the cell's open interior, or its line misses the closed cell by a margin far above
+    round-off); marked cells are clipped exactly afterwards."""
+    nx = len(xs) - 1
+    ny = len(ys) - 1
+    for k in range(a.shape[0]):
+        ax, ay, bx, by = a[k, 0], a[k, 1], b[k, 0], b[k, 1]
+        xmin, xmax = min(ax, bx), max(ax, bx)
+        ymin, ymax = min(ay, by), max(ay, by)
+        # cells with xs[i] < xmax and xs[i+1] > xmin (open x-range meets [xmin, xmax]), same in y
+        i0 = max(np.searchsorted(xs, xmin, side="right") - 1, 0)
+        i1 = min(np.searchsorted(xs, xmax, side="left") - 1, nx - 1)
+        j0 = max(np.searchsorted(ys, ymin, side="right") - 1, 0)
+        j1 = min(np.searchsorted(ys, ymax, side="left") - 1, ny - 1)
+        dx = bx - ax
+        dy = by - ay
+        for j in range(j0, j1 + 1):
+            for i in range(i0, i1 + 1):
+                c = j * nx + i
+                if crossed[c]:
+                    continue
+                pos = False
+                neg = False
+                big = 0.0
+                for cxy in range(4):
+                    px = xs[i + (1 if cxy == 1 or cxy == 2 else 0)] - ax
+                    py = ys[j + (1 if cxy >= 2 else 0)] - ay
+                    cr = dx * py - dy * px
+                    big = max(big, abs(dx * py) + abs(dy * px))
+                    if cr > 0.0:
+                        pos = True
+                    if cr < 0.0:
+                        neg = True
+                    if cr == 0.0:
+                        pos = True
+                        neg = True
+                # separated by the line only if all corners lie strictly on one side, by more
+                # than a generous multiple of the round-off of the cross products
+                margin = 1e-12 * big
+                sep = True
+                for cxy in range(4):
+                    px = xs[i + (1 if cxy == 1 or cxy == 2 else 0)] - ax
+                    py = ys[j + (1 if cxy >= 2 else 0)] - ay
+                    if abs(dx * py - dy * px) <= margin:
+                        sep = False
+                if not (sep and (pos != neg)):
+                    crossed[c] = True
+
+
+@njit(cache=True)
 def _grid_crossings(a, b, xs, ys, out_edge, out_s, out_kind, out_line, count):
     """Parameters in (0, 1) where segments a->b cross grid lines (incl. the box sides), with the
     kind of line (``END_X``: x = const, ``END_Y``: y = const) and its coordinate."""
@@ -208,28 +260,32 @@ class CutState:
         return [f for f in films if not f.is_empty]
 
     def _classify_cells(self) -> None:
+        """FLUID / CUT / SOLID per cell. A cell whose open interior no segment of the fluid
+        region's boundary can meet (exact: axis-separated, or the segment's line strictly misses
+        the closed cell) is entirely fluid or entirely solid, decided by its centre; only the
+        others are clipped (GEOS) and classified by the area of their fluid part."""
         g = self.grid
         n = g.n_cells
         state = np.full(n, SOLID, dtype=np.int8)
-        mark = np.zeros(n, dtype=np.bool_)
-        tol = 1e-12 * float(np.max(np.abs([*g.box]))) + 1e-14
-        for o in self.outlines:
-            e = o.all_edges
-            _raster_edges(o.x[e[:, 0]], o.x[e[:, 1]], g.xs, g.ys, tol, mark)
-        for isl in self.islands:
-            c = np.asarray(isl.exterior.coords)
-            _raster_edges(c[:-1], c[1:], g.xs, g.ys, tol, mark)
-        cand = np.nonzero(mark)[0]
-        other = np.nonzero(~mark)[0]
-        ij = g.cell_ij
-        centers = np.column_stack([0.5 * (g.xs[ij[:, 0]] + g.xs[ij[:, 0] + 1]), 0.5 * (g.ys[ij[:, 1]] + g.ys[ij[:, 1] + 1])])
-        if not self.fluid.is_empty:
-            inside = shapely.contains_xy(self.fluid, centers[other, 0], centers[other, 1])
-            state[other[inside]] = FLUID
         self.polygons: dict[int, shapely.Geometry] = {}
         area_cell = g.cell_size[:, 0] * g.cell_size[:, 1]
-        self.fluid_area = np.where(state == FLUID, area_cell, 0.0)
-        if len(cand) and not self.fluid.is_empty:
+        self.fluid_area = np.zeros(n)
+        if self.fluid.is_empty:
+            self.state = state
+            return
+        xy, ring = shapely.get_coordinates(shapely.get_rings(shapely.get_parts(self.fluid)), return_index=True)
+        same = ring[1:] == ring[:-1]
+        crossed = np.zeros(n, dtype=np.bool_)
+        _crossed_cells(xy[:-1][same], xy[1:][same], g.xs, g.ys, crossed)
+        ij = g.cell_ij
+        other = np.nonzero(~crossed)[0]
+        cx = 0.5 * (g.xs[ij[other, 0]] + g.xs[ij[other, 0] + 1])
+        cy = 0.5 * (g.ys[ij[other, 1]] + g.ys[ij[other, 1] + 1])
+        inside = other[shapely.contains_xy(self.fluid, cx, cy)]
+        state[inside] = FLUID
+        self.fluid_area[inside] = area_cell[inside]
+        cand = np.nonzero(crossed)[0]
+        if len(cand):
             boxes = shapely.box(g.xs[ij[cand, 0]], g.ys[ij[cand, 1]], g.xs[ij[cand, 0] + 1], g.ys[ij[cand, 1] + 1])
             parts = shapely.intersection(boxes, self.fluid)
             parts = np.array([_polygonal(p) for p in parts], dtype=object)
@@ -256,21 +312,21 @@ class CutState:
         pts_f = (x0[:, None, :] + 0.5 * (xi[None] + 1.0) * size[:, None, :])
         wts_f = w[None, :] * (0.25 * size[:, 0] * size[:, 1])[:, None]
         cut_cells = np.array(sorted(self.polygons), dtype=np.int64)
-        pts_c, wts_c, cnt_c = [], [], []
+        pts_c, wts_c, owner_c = np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=np.int64)
         if len(cut_cells):
+            # all triangles of all cut cells at once (same triangles, same order as one cell at a time)
             tris = shapely.constrained_delaunay_triangles(np.array([self.polygons[int(c)] for c in cut_cells], dtype=object))
-            for c, tri in zip(cut_cells, tris):
-                parts = shapely.get_parts(tri)
-                verts = np.array([np.asarray(t.exterior.coords)[:3] for t in parts if t.area > 0.0])
-                if len(verts) == 0:
-                    verts = np.zeros((0, 3, 2))
-                p, ww = triangle_rule(verts, self.quad_degree)
-                pts_c.append(p)
-                wts_c.append(ww)
-                cnt_c.append(len(ww))
-        pts = np.vstack([pts_f.reshape(-1, 2)] + pts_c)
-        wts = np.concatenate([wts_f.ravel()] + wts_c)
-        owner = np.concatenate([np.repeat(fluid_cells, 4), np.repeat(cut_cells, np.asarray(cnt_c, dtype=np.int64))])
+            parts, which = shapely.get_parts(tris, return_index=True)
+            keep = shapely.area(parts) > 0.0
+            parts, which = parts[keep], which[keep]
+            xy, ring = shapely.get_coordinates(shapely.get_exterior_ring(parts), return_index=True)
+            first = np.searchsorted(ring, np.arange(len(parts)))
+            verts = xy[first[:, None] + np.arange(3)[None, :]].reshape(-1, 3, 2)
+            pts_c, wts_c = triangle_rule(verts, self.quad_degree)
+            owner_c = np.repeat(cut_cells[which], len(wts_c) // max(len(parts), 1))
+        pts = np.vstack([pts_f.reshape(-1, 2), pts_c])
+        wts = np.concatenate([wts_f.ravel(), wts_c])
+        owner = np.concatenate([np.repeat(fluid_cells, 4), owner_c])
         order = np.argsort(owner, kind="stable")
         owner = owner[order]
         self.int_cells, counts = np.unique(owner, return_counts=True)
@@ -283,16 +339,47 @@ class CutState:
     def _build_segments(self) -> None:
         g = self.grid
         hmin = float(min(np.diff(g.xs).min(), np.diff(g.ys).min()))
-        all_edges = []
-        for b, o in enumerate(self.outlines):
-            all_edges.append((b, o.x[o.all_edges[:, 0]], o.x[o.all_edges[:, 1]]))
+        nb = len(self.outlines)
+        # interface edges of all bodies (rows per body from off[b]) and every boundary edge
+        a_if = np.vstack([o.x[o.edges[:, 0]] for o in self.outlines]) if nb else np.zeros((0, 2))
+        c_if = np.vstack([o.x[o.edges[:, 1]] for o in self.outlines]) if nb else np.zeros((0, 2))
+        off = np.concatenate([[0], np.cumsum([len(o.edges) for o in self.outlines])]).astype(np.int64)
+        body_if = np.repeat(np.arange(nb), np.diff(off))
+        lines_if = shapely.linestrings(np.stack([a_if, c_if], axis=1)) if len(a_if) else np.zeros(0, dtype=object)
+        # crossings with other bodies' outlines (contact overlaps, touching bodies): one tree, one query
+        cross_body = np.zeros(0, dtype=np.int64)
+        cross_edge = np.zeros(0, dtype=np.int64)
+        cross_s = np.zeros(0)
+        if nb > 1 and len(a_if):
+            p0 = np.vstack([o.x[o.all_edges[:, 0]] for o in self.outlines])
+            p1 = np.vstack([o.x[o.all_edges[:, 1]] for o in self.outlines])
+            body_all = np.repeat(np.arange(nb), [len(o.all_edges) for o in self.outlines])
+            i_mine, i_other = shapely.STRtree(shapely.linestrings(np.stack([p0, p1], axis=1))).query(lines_if)
+            other = body_if[i_mine] != body_all[i_other]
+            i_mine, i_other = i_mine[other], i_other[other]
+            if len(i_mine):
+                k, cross_s = _segment_events(a_if[i_mine], c_if[i_mine], p0[i_other], p1[i_other])
+                cross_edge = i_mine[k]
+                cross_body = body_if[cross_edge]
+        # vertices of the fluid region lying on an edge: where the wetted part ends even if the other
+        # body only nearly touches (gaps of round-off size, closed films)
+        on_body = np.zeros(0, dtype=np.int64)
+        on_edge_i = np.zeros(0, dtype=np.int64)
+        on_s = np.zeros(0)
+        if not self.fluid.is_empty and len(a_if):
+            fluid_pts = shapely.get_coordinates(self.fluid)
+            i_pt, i_mine = shapely.STRtree(lines_if).query(shapely.points(fluid_pts), predicate="dwithin",
+                                                           distance=1e-9 * hmin)
+            if len(i_pt):
+                d = c_if[i_mine] - a_if[i_mine]
+                sp = np.einsum("ij,ij->i", fluid_pts[i_pt] - a_if[i_mine], d) / np.einsum("ij,ij->i", d, d)
+                ok = (sp > 0.0) & (sp < 1.0)
+                on_edge_i, on_s = i_mine[ok], sp[ok]
+                on_body = body_if[on_edge_i]
         rows = []
-        fluid_pts = np.vstack([np.asarray(r.coords) for part in shapely.get_parts(self.fluid)
-                               for r in (part.exterior, *part.interiors)]) if not self.fluid.is_empty else np.zeros((0, 2))
-        on_edge = 1e-9 * hmin
         for b, o in enumerate(self.outlines):
-            a = o.x[o.edges[:, 0]]
-            c = o.x[o.edges[:, 1]]
+            a = a_if[off[b]:off[b + 1]]
+            c = c_if[off[b]:off[b + 1]]
             nE = len(a)
             ev_edge = [np.arange(nE), np.arange(nE)]
             ev_s = [np.zeros(nE), np.ones(nE)]
@@ -308,29 +395,12 @@ class CutState:
             n_grid = int(cnt[0])
             ev_edge.append(oe[:n_grid])
             ev_s.append(os_[:n_grid])
-            # crossings with other bodies' outlines (contact overlaps, touching bodies)
-            for b2, p0, p1 in all_edges:
-                if b2 == b:
-                    continue
-                tree = shapely.STRtree(shapely.linestrings(np.stack([p0, p1], axis=1)))
-                mine = shapely.linestrings(np.stack([a, c], axis=1))
-                i_mine, i_other = tree.query(mine)
-                if len(i_mine):
-                    k, s = _segment_events(a[i_mine], c[i_mine], p0[i_other], p1[i_other])
-                    ev_edge.append(i_mine[k])
-                    ev_s.append(s)
-            # vertices of the fluid region lying on the edge: where the wetted part ends even if
-            # the other body only nearly touches (gaps of round-off size, closed films)
-            if len(fluid_pts):
-                mine = shapely.linestrings(np.stack([a, c], axis=1))
-                i_pt, i_mine = shapely.STRtree(mine).query(shapely.points(fluid_pts), predicate="dwithin",
-                                                           distance=on_edge)
-                if len(i_pt):
-                    d = c[i_mine] - a[i_mine]
-                    sp = np.einsum("ij,ij->i", fluid_pts[i_pt] - a[i_mine], d) / np.einsum("ij,ij->i", d, d)
-                    ok = (sp > 0.0) & (sp < 1.0)
-                    ev_edge.append(i_mine[ok])
-                    ev_s.append(sp[ok])
+            m = cross_body == b
+            ev_edge.append(cross_edge[m] - off[b])
+            ev_s.append(cross_s[m])
+            m = on_body == b
+            ev_edge.append(on_edge_i[m] - off[b])
+            ev_s.append(on_s[m])
             E = np.concatenate(ev_edge)
             S = np.concatenate(ev_s)
             n_other = len(E) - 2 * nE - n_grid
