@@ -41,6 +41,9 @@ class StepContext:
         return 0.0 if self.static else 1.0 - self.theta
 
 
+_GAUSS2 = np.polynomial.legendre.leggauss(2)  # the fluid Neumann rule (computed once)
+
+
 def time_weighted_vector(values, function, ctx: StepContext, points, n: int) -> np.ndarray:
     """Evaluate a pair of expressions ``values`` at ``points()`` for both time levels of a step,
     weighted by ``w_new``/``w_old`` and a time function; zeros if ``values`` is None."""
@@ -192,6 +195,10 @@ class SolidField:
         """Per-edge dead traction ``(k, 2)`` and follower pressure ``(k,)``, time-weighted.
 
         Load expressions are evaluated at the edge midpoints (reference coordinates)."""
+        key = (id(nm), tuple(levels))
+        cache = self.__dict__.setdefault("_load_cache", {})
+        if cache.get(key, (None,))[0] is nm:  # same condition and time levels: same values
+            return cache[key][1], cache[key][2]
         mid = 0.5 * (self.X[edges[:, 0]] + self.X[edges[:, 1]])
         traction = np.zeros((len(edges), 2))
         pressure = np.zeros(len(edges))
@@ -204,6 +211,9 @@ class SolidField:
                     traction[:, c] += nm.values[c](mid[:, 0], mid[:, 1], t) * f
             else:
                 pressure += nm.values[0](mid[:, 0], mid[:, 1], t) * f
+        if len(cache) > 16:
+            cache.clear()
+        cache[key] = (nm, traction, pressure)
         return traction, pressure
 
     def _assemble_neumann(self, asm: Assembly, U: np.ndarray, levels, dead: bool, follower: bool) -> None:
@@ -424,10 +434,12 @@ class FluidField:
         """Fluid tractions on box sides, integrated over the PHYSICAL part of each side."""
         if not self._neumann:
             return
-        gx, gw = np.polynomial.legendre.leggauss(2)
+        gx, gw = _GAUSS2
         X = self.grid.nodes
         start = asm.layout.start
         for side, normal, nm in self._neumann:
+            if all(w == 0.0 or nm.function(t) * w == 0.0 for t, w in ((ctx.t_new, ctx.w_new), (ctx.t_old, ctx.w_old))):
+                continue  # no load at either level (e.g. before a ramp starts): it would add zeros
             edges_all = self.grid.side_edges(side)
             k, s0, s1 = self.cut.boundary_pieces(side)
             if len(k) == 0:

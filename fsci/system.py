@@ -215,7 +215,16 @@ class System:
 
     # ----------------------------------------------------------------- boundary conditions
     def dirichlet(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """Global Dirichlet dofs and their values at time ``t`` (incl. a pressure pin)."""
+        """Global Dirichlet dofs and their values at time ``t`` (incl. a pressure pin); cached
+        per (t, dof layout): every Newton iteration of a step asks for the same values."""
+        cached = getattr(self, "_dirichlet_cache", None)
+        if cached is not None and cached[0] == t and cached[1] is self.layout:
+            return cached[2], cached[3]
+        d, v = self._dirichlet(t)
+        self._dirichlet_cache = (t, self.layout, d, v)
+        return d, v
+
+    def _dirichlet(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         dofs, vals = [], []
         st = self.layout.start
         for s in self.solids:

@@ -203,12 +203,98 @@ class CouplingTerm:
 
     def gather(self, system, ctx: StepContext, level: str = "new") -> dict:
         """Kernel arrays of every piece. ``level`` "old": the solid velocity is the stored one
-        (evaluation of the old time level at the converged state)."""
+        (evaluation of the old time level at the converged state).
+
+        Everything but the local unknowns ``z`` (and, where expressions are evaluated at the
+        current Gauss points, the prescribed interface velocity, slip length and fluid body force)
+        depends only on the pieces, the step and the step's frozen data; that part is gathered
+        once per (pieces, step, level) and ``z`` is one indexed read of the state per call."""
+        f = system.fluid
+        key = (self.pieces(system), ctx, level, *(s.Un for s in system.solids), *(s.Vn for s in system.solids),
+               *(s.gnode for s in system.solids), *self.phi,
+               *((f.Vbar, f.Vn, f.gnode) if f is not None else ()))
+        cache = self.__dict__.setdefault("_static_cache", {})
+        hit = cache.get(level)
+        if hit is None or len(hit[0]) != len(key) or any(a is not b for a, b in zip(hit[0], key)):
+            hit = (key, self._gather_static(system, ctx, level))
+            cache[level] = hit
+        d = dict(hit[1])
+        parts = [s.U.ravel() for s in system.solids]
+        if f is not None:
+            parts.append(np.column_stack([f.V, f.P]).ravel())
+        flat = np.concatenate(parts + [np.zeros(1)])  # the last entry: 0 for absent slots
+        d["z"] = flat[d.pop("zidx")]
+        if d.pop("moving_data"):
+            d.update(self._position_data(system, ctx, level, self.pieces(system)))
+        if f is not None and ctx.static:
+            sel = np.nonzero(self.pieces(system).fs)[0]
+            Vo = np.zeros_like(d["Vo"])
+            Vo[sel] = f.V[f.grid.cells[self.pieces(system).cell[sel]]]
+            d["Vo"] = Vo
+        return d
+
+    def _position_data(self, system, ctx: StepContext, level: str, pc: CouplingPieces) -> dict:
+        """Data evaluated at the current Gauss points (expressions in x, y, t): prescribed interface
+        velocity ``vq``/``vqe``, slip length ``kap``, fluid body-force density ``bq``."""
+        K = len(pc)
+        G = len(self.gp)
+        f = system.fluid
+        vq = np.zeros((K, G, 2))
+        kap = np.zeros((K, G))
+        vqe = np.zeros((K, 2))
+        bq = np.zeros((K, G, 2))
+        has_ext = pc.ext_edge >= 0
+        t_lvl = ctx.t_new if level == "new" else ctx.t_old
+        for b, s in enumerate(system.solids):
+            m = np.nonzero(pc.body == b)[0]
+            if len(m) == 0:
+                continue
+            body = s.body
+            e = self._edges[b][pc.edge[m]]
+            if body.interface_velocity is not None or isinstance(body.slip_length, Expression):
+                xg = self._gauss_points((s.X + s.U)[e], pc.s0[m], pc.s1[m])
+            if body.interface_velocity is not None:
+                for c in range(2):
+                    vq[m, :, c] = body.interface_velocity[c](xg[..., 0], xg[..., 1], t_lvl)
+            if isinstance(body.slip_length, Expression):
+                kv = body.slip_length(xg[..., 0], xg[..., 1], t_lvl)
+                if np.any(kv < 0):
+                    raise InputError(f"bodies.{body.name}.slip_length", body.slip_length.text,
+                                     f"a slip length κ ≥ 0 (the expression gives {kv.min():.3g})")
+                kap[m] = kv
+            elif body.slip_length != GAP_LAW:
+                kap[m] = float(body.slip_length)
+            me = m[has_ext[m]]
+            if len(me) and body.interface_velocity is not None:
+                ee = self._edges[b][pc.ext_edge[me]]
+                xe = (1 - pc.ext_s[me, None]) * (s.X + s.U)[ee[:, 0]] + pc.ext_s[me, None] * (s.X + s.U)[ee[:, 1]]
+                for c in range(2):
+                    vqe[me, c] = body.interface_velocity[c](xe[:, 0], xe[:, 1], t_lvl)
+        if f is not None and f.spec.body_force is not None:
+            sel = np.nonzero(pc.fs)[0]
+            if len(sel):
+                body = pc.body[sel]
+                xg = np.zeros((len(sel), G, 2))
+                for b, s in enumerate(system.solids):
+                    mb = body == b
+                    e = self._edges[b][pc.edge[sel[mb]]]
+                    xg[mb] = self._gauss_points((s.X + s.U)[e], pc.s0[sel[mb]], pc.s1[sel[mb]])
+                bq[sel] = f.rho * time_weighted_vector(f.spec.body_force, f.spec.body_force_function, ctx,
+                                                       lambda: xg.reshape(-1, 2), len(sel) * G).reshape(-1, G, 2)
+        return dict(vq=vq, kap=kap, vqe=vqe, bq=bq)
+
+    def _gather_static(self, system, ctx: StepContext, level: str) -> dict:
+        """Everything of :meth:`gather` that does not change within a step's Newton iterations on
+        one set of pieces, plus ``zidx``: for every local unknown its index into the flat state
+        ``[U of each body, (v_x, v_y, p) of each background node, 0]`` (absent: the final 0)."""
         pc = self.pieces(system)
         K = len(pc)
         G = len(self.gp)
         f = system.fluid
-        z = np.zeros((K, tk.N_LOCAL))
+        zero = sum(2 * s.n for s in system.solids) + (3 * f.grid.n_nodes if f is not None else 0)
+        zidx = np.full((K, tk.N_LOCAL), zero, dtype=np.int64)
+        base = np.concatenate([[0], np.cumsum([2 * s.n for s in system.solids])]).astype(np.int64)
+        fbase = int(base[-1])
         conn = np.full((K, tk.N_SLOTS), -1, dtype=np.int64)
         ip = np.zeros((K, tk.N_INT), dtype=np.int64)
         fp = np.zeros((K, tk.N_FLT))
@@ -217,13 +303,9 @@ class CouplingTerm:
         prmo = np.zeros((K, 2))
         prmm = np.zeros((K, 2))
         W = np.zeros((K, 2, 2))
-        vq = np.zeros((K, G, 2))
-        kap = np.zeros((K, G))
         Xe = np.zeros((K, 2, 2))
         We = np.zeros((K, 2, 2))
-        vqe = np.zeros((K, 2))
         Vo = np.zeros((K, 4, 2))  # previous fluid velocity at the cell nodes (bulk shape derivative)
-        bq = np.zeros((K, G, 2))  # fluid body-force density at the Gauss points
         vmax_s = np.zeros(K)
         fp[:, tk.F_S0] = pc.s0
         fp[:, tk.F_S1] = pc.s1
@@ -236,18 +318,21 @@ class CouplingTerm:
         flags = np.where(has_opp, tk.HAS_OPP, 0) | np.where(pc.fs, tk.ON_FS, 0) | np.where(has_ext, tk.HAS_EXT, 0)
         transient = not ctx.static
         c_new = 1.0 / (ctx.theta * ctx.dt) if transient else 0.0
+        moving = False  # data evaluated at the current Gauss points
+        two = np.arange(2)
         for b, s in enumerate(system.solids):
             m = np.nonzero(pc.body == b)[0]
             if len(m) == 0:
                 continue
             body = s.body
+            moving |= body.interface_velocity is not None or isinstance(body.slip_length, Expression)
             cells = s.mesh.cells[self._cell[b][pc.edge[m]]]
             eo = self._local[b][pc.edge[m]]
             ip[m, tk.I_EO] = eo
             ip[m, tk.I_LAWO] = s.law
             prmo[m] = s.prm
             Xo[m] = s.X[cells]
-            z[m, :8] = s.U[cells].reshape(len(m), 8)
+            zidx[m, :8] = (base[b] + 2 * cells[:, :, None] + two).reshape(len(m), 8)
             e = self._edges[b][pc.edge[m]]
             edge_slots = np.column_stack([eo, (eo + 1) % 4])
             gn = s.gnode[cells]
@@ -264,25 +349,12 @@ class CouplingTerm:
             vmax_s[m] = np.max(np.abs(s.Vn[e]), axis=(1, 2))
             if body.slip_length == GAP_LAW:
                 flags[m] |= tk.SLIP_LAW
-            xg = self._gauss_points((s.X + s.U)[e], pc.s0[m], pc.s1[m])
-            t_lvl = ctx.t_new if level == "new" else ctx.t_old
-            if body.interface_velocity is not None:
-                for c in range(2):
-                    vq[m, :, c] = body.interface_velocity[c](xg[..., 0], xg[..., 1], t_lvl)
-            if isinstance(body.slip_length, Expression):
-                kv = body.slip_length(xg[..., 0], xg[..., 1], t_lvl)
-                if np.any(kv < 0):
-                    raise InputError(f"bodies.{body.name}.slip_length", body.slip_length.text,
-                                     f"a slip length κ ≥ 0 (the expression gives {kv.min():.3g})")
-                kap[m] = kv
-            elif body.slip_length != GAP_LAW:
-                kap[m] = float(body.slip_length)
             # extension points on this body
             me = m[has_ext[m]]
             if len(me):
                 ee = self._edges[b][pc.ext_edge[me]]
                 Xe[me] = s.X[ee]
-                z[me, tk.OFF_EDGE:tk.OFF_EDGE + 4] = s.U[ee].reshape(len(me), 4)
+                zidx[me, tk.OFF_EDGE:tk.OFF_EDGE + 4] = (base[b] + 2 * ee[:, :, None] + two).reshape(len(me), 4)
                 conn[me, 16:18] = s.gnode[ee]
                 if transient and body.interface_velocity is None:
                     if level == "new":
@@ -290,10 +362,6 @@ class CouplingTerm:
                         We[me] = c_new * s.Un[ee] + (1.0 - ctx.theta) / ctx.theta * s.Vn[ee]
                     else:
                         We[me] = -s.Vn[ee]
-                if body.interface_velocity is not None:
-                    xe = (1 - pc.ext_s[me, None]) * (s.X + s.U)[ee[:, 0]] + pc.ext_s[me, None] * (s.X + s.U)[ee[:, 1]]
-                    for c in range(2):
-                        vqe[me, c] = body.interface_velocity[c](xe[:, 0], xe[:, 1], t_lvl)
         # opposite bodies
         for b, s in enumerate(system.solids):
             m = np.nonzero(pc.opp_body == b)[0]
@@ -304,7 +372,7 @@ class CouplingTerm:
             ip[m, tk.I_LAWM] = s.law
             prmm[m] = s.prm
             Xm[m] = s.X[cells]
-            z[m, tk.OFF_OPP:tk.OFF_OPP + 8] = s.U[cells].reshape(len(m), 8)
+            zidx[m, tk.OFF_OPP:tk.OFF_OPP + 8] = (base[b] + 2 * cells[:, :, None] + two).reshape(len(m), 8)
             conn[m, 4:8] = s.gnode[cells]
         mo = np.nonzero(has_opp)[0]
         if len(mo):
@@ -317,13 +385,14 @@ class CouplingTerm:
             st = self.iset
             fp[:, tk.F_KAPPA0] = st.kappa0
             fp[:, tk.F_SLIPH] = self.slip_h
+            three = np.arange(3)
 
             def cell_data(sel: np.ndarray, cells: np.ndarray, slot: int, off: int,
                           cols: tuple[int, int, int, int]) -> tuple[np.ndarray, np.ndarray]:
                 """Fluid slots, cell geometry and γ^F of the pieces ``sel`` in ``cells``."""
                 nodes = g.cells[cells]
                 conn[sel, slot:slot + 4] = f.gnode[nodes]
-                z[sel, off:off + 12] = np.concatenate([f.V[nodes], f.P[nodes][..., None]], axis=2).reshape(-1, 12)
+                zidx[sel, off:off + 12] = (fbase + 3 * nodes[:, :, None] + three).reshape(-1, 12)
                 hx, hy = g.cell_size[cells, 0], g.cell_size[cells, 1]
                 fp[sel, cols[0]] = g.xs[g.cell_ij[cells, 0]]
                 fp[sel, cols[1]] = g.ys[g.cell_ij[cells, 1]]
@@ -341,23 +410,19 @@ class CouplingTerm:
                 gam, hk = cell_data(sel, pc.cell[sel], 8, tk.OFF_CELL, (tk.F_X0C, tk.F_Y0C, tk.F_HX, tk.F_HY))
                 fp[sel, tk.F_GAM] = gam
                 fp[sel, tk.F_AT] = hk / (st.gamma_t * st.trace_constant)
-                Vo[sel] = (f.V if ctx.static else f.Vn)[g.cells[pc.cell[sel]]]
-                if f.spec.body_force is not None:
-                    body = pc.body[sel]
-                    xg = np.zeros((len(sel), G, 2))
-                    for b, s in enumerate(system.solids):
-                        mb = body == b
-                        e = self._edges[b][pc.edge[sel[mb]]]
-                        xg[mb] = self._gauss_points((s.X + s.U)[e], pc.s0[sel[mb]], pc.s1[sel[mb]])
-                    bq[sel] = f.rho * time_weighted_vector(f.spec.body_force, f.spec.body_force_function, ctx,
-                                                           lambda: xg.reshape(-1, 2), len(sel) * G).reshape(-1, G, 2)
+                if not ctx.static:
+                    Vo[sel] = f.Vn[g.cells[pc.cell[sel]]]
+                moving |= f.spec.body_force is not None
             sel = np.nonzero(has_ext)[0]
             if len(sel):
                 gam, _ = cell_data(sel, pc.ext_cell[sel], 12, tk.OFF_EXT, (tk.F_X0E, tk.F_Y0E, tk.F_HXE, tk.F_HYE))
                 fp[sel, tk.F_GAME] = gam
                 fp[sel, tk.F_SE] = pc.ext_s[sel]
-        return dict(z=z, conn=conn, ip=ip, fp=fp, Xo=Xo, prmo=prmo, Xm=Xm, prmm=prmm, W=W, vq=vq, kap=kap, Xe=Xe,
-                    We=We, vqe=vqe, Vo=Vo, bq=bq)
+        out = dict(zidx=zidx, conn=conn, ip=ip, fp=fp, Xo=Xo, prmo=prmo, Xm=Xm, prmm=prmm, W=W, Xe=Xe, We=We, Vo=Vo,
+                   moving_data=moving)
+        if not moving:  # evaluated once: constant slip lengths only
+            out.update(self._position_data(system, ctx, level, pc))
+        return out
 
     def _gauss_points(self, x: np.ndarray, s0: np.ndarray, s1: np.ndarray) -> np.ndarray:
         s = s0[:, None] + (s1 - s0)[:, None] * self.gp[None, :]
