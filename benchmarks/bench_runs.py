@@ -14,6 +14,8 @@ import resource
 import time
 from concurrent.futures import ProcessPoolExecutor
 
+import numpy as np
+
 from fsci.cases import get_case
 from fsci.config import apply_override, problem_from_dict
 from fsci.simulation import Simulation
@@ -34,6 +36,13 @@ def run_row(name: str) -> dict[str, float]:
         apply_override(case, o)
     case["output"] = {"every": 0, "figures": False, "fields": False}
     sim = Simulation(problem_from_dict(case))
+    rss: list[tuple[int, float]] = []  # (step, resident set size [MB]) every 250 steps
+
+    def sample(s, ctx, rep) -> None:
+        if s.step % 250 == 0:
+            rss.append((s.step, _rss_mb()))
+
+    sim.step_hooks.append(sample)
     t0 = time.perf_counter()
     sim.run()
     wall = time.perf_counter() - t0
@@ -42,16 +51,38 @@ def run_row(name: str) -> dict[str, float]:
             "factorizations": lin.counts["factorization"], "reused": lin.counts.get("reused", 0),
             "krylov": lin.counts.get("krylov", 0), **{k: v for k, v in sim.system.timings.items()},
             **{k: v for k, v in lin.timings.items()},
-            "peak_rss_MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
+            "peak_rss_MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+            "growth_MB_per_1000": _growth(rss), "rss_samples": rss}
+
+
+def _rss_mb() -> float:
+    """Current resident set size of this process [MB] (Linux /proc; 0 elsewhere)."""
+    try:
+        with open("/proc/self/statm") as fh:
+            return int(fh.read().split()[1]) * resource.getpagesize() / 2 ** 20
+    except OSError:
+        return 0.0
+
+
+def _growth(rss: list[tuple[int, float]]) -> float:
+    """RSS growth per 1000 steps: least-squares slope over the samples after the first 1000 steps
+    (start-up, compilation and the first pattern/factor sizes excluded); NaN for short runs."""
+    pts = [(k, m) for k, m in rss if k >= 1000]
+    if len(pts) < 2:
+        return float("nan")
+    k = np.array([p[0] for p in pts], float)
+    m = np.array([p[1] for p in pts])
+    return float(np.polyfit(k, m, 1)[0] * 1000.0)
 
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--rows", nargs="+", choices=list(ROWS), default=list(ROWS), help="rows to run (default: all)")
+    ap.add_argument("--rss", action="store_true", help="also print the RSS samples (every 250 steps) of each row")
     args = ap.parse_args(argv)
     print("| run | unknowns | steps | Newton (per step) | factorisations (reused) | cut | assembly | analysis "
-          "| factor | solve | wall [s] | before [s] | speed-up | peak RSS [MB] |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "| factor | solve | wall [s] | before [s] | speed-up | peak RSS [MB] | RSS growth [MB/1000 steps] |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in args.rows:
         with ProcessPoolExecutor(max_workers=1) as pool:  # a fresh process per row: its own peak RSS
             r = pool.submit(run_row, name).result()
@@ -59,7 +90,9 @@ def main(argv: list[str] | None = None) -> None:
         print(f"| {name} | {r['unknowns']} | {r['steps']} | {r['newton']} ({r['newton'] / max(r['steps'], 1):.2f}) "
               f"| {r['factorizations']} ({r['reused']}) | {r['cut']:.1f} | {r['assembly']:.1f} | {r['analysis']:.1f} "
               f"| {r['factorization']:.1f} | {r['solve']:.1f} | {r['wall']:.0f} | {before:.0f} "
-              f"| {before / r['wall']:.2f} | {r['peak_rss_MB']:.0f} |", flush=True)
+              f"| {before / r['wall']:.2f} | {r['peak_rss_MB']:.0f} | {r['growth_MB_per_1000']:.2f} |", flush=True)
+        if args.rss:
+            print(f"<!-- {name} RSS samples (step, MB): {r['rss_samples']} -->", flush=True)
 
 
 if __name__ == "__main__":
