@@ -378,42 +378,72 @@ def flow_rate(fluid, side: str) -> float:
     return float(np.sum(length * ((1.0 - sm) * vn[e[:, 0]] + sm * vn[e[:, 1]])))
 
 
-def oscillation(t: np.ndarray, y: np.ndarray) -> dict[str, float]:
-    """Mean, amplitude, period and frequency over the last full period of a signal.
+def oscillation(t: np.ndarray, y: np.ndarray, prominence: float = 0.25) -> dict[str, float]:
+    """Mean, amplitude, extremes, period and frequency over the last full period of a signal.
 
-    The period is the spacing of the last two maxima (times refined by a parabola through
-    the three samples around each maximum); mean = (max + min)/2 and amplitude = (max - min)/2
-    over that period (Turek-Hron convention)."""
+    The period is the spacing of the last two maxima (times refined by a parabola through the
+    three samples around each maximum); ``max`` is the larger of the two, ``min`` the smallest
+    value between them (refined alike); mean = (max + min)/2 and amplitude = (max - min)/2
+    (Turek-Hron convention). Only *prominent* maxima count: the signal must fall by at least
+    ``prominence`` times its range over the second half of the record on both sides of a
+    maximum before it rises above it again (topographic prominence). Small wiggles near a
+    maximum of a noisy or weakly resolved signal (e.g. ux(A) of CSM3, whose wiggles near zero
+    were taken for the period) are thus not taken for peaks; a maximum right at the end of the
+    record, whose descent is not yet seen, is not counted either.
+
+    Parameters
+    ----------
+    t, y : numpy.ndarray
+        Sample times (increasing) and values.
+    prominence : float
+        Minimum prominence of a counted maximum, relative to the range of the second half.
+
+    Returns
+    -------
+    dict
+        ``mean``, ``amplitude``, ``max``, ``min``, ``period``, ``frequency`` (NaN if the record
+        has fewer than two prominent maxima)."""
+    nan = float("nan")
+    none = {"mean": nan, "amplitude": nan, "max": nan, "min": nan, "period": nan, "frequency": nan}
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(y, dtype=float)
     if len(t) < 5:
-        return {"mean": float("nan"), "amplitude": float("nan"), "period": float("nan"), "frequency": float("nan")}
-    idx = [i for i in range(1, len(y) - 1) if y[i] > y[i - 1] and y[i] >= y[i + 1]]
+        return none
+    tail = y[len(y) // 2:]
+    threshold = prominence * float(tail.max() - tail.min())
+    if threshold <= 0.0:
+        return none
+
+    def prominent(i: int) -> bool:
+        for side in (y[i - 1::-1], y[i + 1:]):  # walk away from the peak until it is exceeded
+            higher = np.nonzero(side > y[i])[0]
+            stretch = side[:higher[0]] if len(higher) else side
+            if y[i] - stretch.min() < threshold:
+                return False
+        return True
+
+    idx = [i for i in range(1, len(y) - 1) if y[i] > y[i - 1] and y[i] >= y[i + 1] and prominent(i)]
     if len(idx) < 2:
-        return {"mean": float("nan"), "amplitude": float("nan"), "period": float("nan"), "frequency": float("nan")}
+        return none
 
-    def refine(i: int) -> tuple[float, float]:
+    def extremum(i: int, sign: float) -> tuple[float, float]:
+        """Vertex of the parabola through samples i-1, i, i+1 if it is a maximum (``sign`` 1)
+        or minimum (-1), else the sample itself."""
         t0, t1, t2 = t[i - 1], t[i], t[i + 1]
-        y0, y1, y2 = y[i - 1], y[i], y[i + 1]
         A = np.array([[t0 ** 2, t0, 1.0], [t1 ** 2, t1, 1.0], [t2 ** 2, t2, 1.0]])
-        a, b, c = np.linalg.solve(A, [y0, y1, y2])
-        if a >= 0:
-            return t1, y1
+        a, b, c = np.linalg.solve(A, y[i - 1:i + 2])
+        if sign * a >= 0.0:
+            return t1, float(y[i])
         tm = -b / (2 * a)
-        return tm, a * tm ** 2 + b * tm + c
+        return tm, float(a * tm ** 2 + b * tm + c)
 
-    (ta, ya), (tb, yb) = refine(idx[-2]), refine(idx[-1])
-    window = (t >= t[idx[-2]]) & (t <= t[idx[-1]])
-    ymin = float(np.min(y[window]))
-    j = idx[-2] + int(np.argmin(y[window]))
-    if 0 < j < len(y) - 1:
-        t0, t1, t2 = t[j - 1], t[j], t[j + 1]
-        A = np.array([[t0 ** 2, t0, 1.0], [t1 ** 2, t1, 1.0], [t2 ** 2, t2, 1.0]])
-        a, b, c = np.linalg.solve(A, [y[j - 1], y[j], y[j + 1]])
-        if a > 0:
-            ymin = float(c - b * b / (4 * a))
+    (ta, ya), (tb, yb) = extremum(idx[-2], 1.0), extremum(idx[-1], 1.0)
+    j = idx[-2] + int(np.argmin(y[idx[-2]:idx[-1] + 1]))
+    ymin = extremum(j, -1.0)[1] if 0 < j < len(y) - 1 else float(y[j])
     ymax = max(ya, yb)
     period = tb - ta
-    return {"mean": 0.5 * (ymax + ymin), "amplitude": 0.5 * (ymax - ymin), "period": period,
-            "frequency": 1.0 / period if period > 0 else float("nan")}
+    return {"mean": 0.5 * (ymax + ymin), "amplitude": 0.5 * (ymax - ymin), "max": ymax, "min": ymin,
+            "period": period, "frequency": 1.0 / period if period > 0 else nan}
 
 
 def centerline_profiles(fluid, params: dict[str, Any]) -> dict[str, np.ndarray]:
