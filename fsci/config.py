@@ -367,7 +367,7 @@ def read_body(b: Mapping[str, Any], where: str, base_dir: Path | None) -> Body:
     return Body(b["name"], mesh, Material(mat["law"], mat["E"], mat["nu"], mat["rho"]), b["body_force"],
                 time_function(b["body_force_function"]), [_dirichlet(d) for d in b["dirichlet"]],
                 [_neumann(n) for n in b["neumann"]], b["interface"], b["contact"], b["rigid"], b["slip_length"],
-                b["interface_velocity"], b["extends_outside"])
+                b["interface_velocity"], b["extends_outside"], b["dry_cavities"])
 
 
 def read_fluid(f: Mapping[str, Any]) -> Fluid:

@@ -67,6 +67,7 @@ class Body:
     slip_length: float | Expression | str = 0.0  # Navier slip length κ (inf = free slip; "gap_law": (40))
     interface_velocity: list[Expression] | None = None  # prescribed interface velocity (overrides du/dt)
     extends_outside: bool = False  # the body may cross the fluid box boundary
+    dry_cavities: bool = False  # cavities enclosed by the body are not fluid
 
 
 @dataclass

@@ -729,6 +729,8 @@ BODY = Table([
     Key("interface_velocity", Values(2), None,
         "prescribed interface velocity (x, y) replacing ∂u/∂t (moving walls, manufactured solutions)", "velocity"),
     Key("extends_outside", Bool(), False, "the body may reach outside the fluid box"),
+    Key("dry_cavities", Bool(), False, "cavities enclosed by the body are not fluid (e.g. a pressurised cavity "
+        "that loads the body); by default the fluid fills them"),
     Key("interface", StrList(), None,
         "edge sets coupled to the fluid (default: the whole boundary except loaded or fixed parts)"),
     Key("contact", StrList(), None, "edge sets that may touch other bodies (default: none)"),
@@ -914,10 +916,10 @@ QUANTITY = Variants(
         "interface_summary": _q("per-step interface data of a body (lengths in contact and wetted, forces); "
                                 "columns `<name>_*`.", BODY_NAME),
         "fluid_pieces": _q("number of connected fluid regions; column `<name>`."),
-        "event": _q("first time the history column `of` falls to zero or rises from zero; results `<name>_time` and "
-                    "`<name>` (= `value` at that time).",
+        "event": _q("first time the history column `of` falls to zero, rises from zero, or falls below half of its "
+                    "largest value so far; results `<name>_time` and `<name>` (= `value` at that time).",
                     Key("of", Str(), REQUIRED, "a history column of an earlier quantity (or case_I..case_IV)"),
-                    Key("when", Str(("falls_to_zero", "rises_from_zero")), REQUIRED, "which event"),
+                    Key("when", Str(("falls_to_zero", "rises_from_zero", "halves")), REQUIRED, "which event"),
                     Key("value", Expr(), None, "value reported at the event, an expression in t (default: t)")),
         "value": _q("a constant (e.g. a derived input) reported in results.json; result `<name>`.",
                     Key("value", Num(), REQUIRED, "the value")),

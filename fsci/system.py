@@ -37,6 +37,7 @@ class System:
         self._loops = [s.mesh.boundary_loops() for s in self.solids]
         self.cut: CutState | None = None
         self.layout_changes = 0
+        self._cut_frozen = False
         self.timings = {"cut": 0.0, "assembly": 0.0}
         if self.fluid is not None:
             try:
@@ -67,7 +68,7 @@ class System:
         tol = 1e-10 * max(1.0, max(abs(v) for v in box))
         for b, s in enumerate(self.solids):
             x = s.X + s.U
-            o = Outline(b, s.name, x, self.interface_edges[b], body_polygon(x, self._loops[b], s.name),
+            o = Outline(b, s.name, x, self.interface_edges[b], body_polygon(x, self._loops[b], s.name, s.body.dry_cavities),
                         s.mesh.boundary.edges)
             if not s.body.extends_outside:
                 check_in_box(o, box, tol)
@@ -103,8 +104,15 @@ class System:
 
     def converged_extra(self, settings) -> bool:
         """Additional convergence condition: for steady flow, the lagged stabilisation velocity
-        changed by at most ``solver.outer_tol`` (relative) in the last iteration."""
-        return self.stab_change <= settings.outer_tol
+        changed by at most ``solver.outer_tol`` relative to the velocity (plus the increment
+        tolerance, so that a fluid at rest — velocity at round-off — counts as converged)."""
+        return self.stab_change <= settings.outer_tol * self.stab_scale + settings.tol_increment
+
+    def _moved_since_cut(self) -> bool:
+        """True if a body moved more than ``eps_geom`` × (smallest cell) since the last cut."""
+        moved = max(float(np.max(np.abs(s.U - u0), initial=0.0)) for s, u0 in zip(self.solids, self._u_at_cut))
+        g = self.fluid.grid
+        return moved > self.fluid.spec.interface.eps_geom * min(float(np.diff(g.xs).min()), float(np.diff(g.ys).min()))
 
     def moving(self) -> bool:
         """True if a body's shape or position is an unknown (its cut may change in Newton)."""
@@ -113,21 +121,24 @@ class System:
     def before_iteration(self, it: int) -> bool:
         """Before assembling Newton iteration ``it``: for steady flow, lag the frozen
         stabilisation velocity; re-cut while the bodies moved more than eps_geom since the last
-        cut and at most ``freeze_cut_after`` iterations into the step (§5.2), and apply the
-        solution-space update rule (§5.3). Returns True if the dof layout changed."""
+        cut and at most ``freeze_cut_after`` iterations into the step (paper Sec. 3.4.2; the
+        shape derivative is left out of the Jacobian once the cut is frozen), and apply the
+        solution-space update rule (Sec. 3.4.3). Returns True if the dof layout changed."""
         f = self.fluid
         if f is not None and self.ctx.static:
-            self.stab_change = float(np.linalg.norm(f.V - f.Vbar) / max(np.linalg.norm(f.V), 1e-300))
+            self.stab_change = float(np.max(np.abs(f.V - f.Vbar), initial=0.0))
+            self.stab_scale = float(np.max(np.abs(f.V), initial=0.0))
             if it > 1:
                 f.Vbar = f.V.copy()
         if f is None or not self.solids or it == 1 or not self.moving():
             return False
         st = self.fluid.spec.interface
+        if it == 2:
+            self._cut_frozen = False
         if it > st.freeze_cut_after:
+            self._cut_frozen = True
             return False  # cut kept fixed: Newton finishes on it (its Jacobian is exact)
-        moved = max(float(np.max(np.abs(s.U - u0), initial=0.0)) for s, u0 in zip(self.solids, self._u_at_cut))
-        g = self.fluid.grid
-        if moved <= st.eps_geom * min(float(np.diff(g.xs).min()), float(np.diff(g.ys).min())):
+        if not self._moved_since_cut():
             return False
         grow_only = it > st.grow_only_after or self.layout_changes >= st.max_layout_changes
         keep = self._step_active if grow_only else None
@@ -266,6 +277,7 @@ class System:
             self.layout_changes = 0
             self._step_active = self.fluid.active.copy()
         self.stab_change = 0.0
+        self.stab_scale = 0.0
         if self.fluid is not None:
             self.fluid.begin_step(ctx)
         for term in self.extra_terms:

@@ -120,7 +120,7 @@ def test_list_and_show_roundtrip(tmp_path, capsys):
     listing = capsys.readouterr().out.splitlines()
     assert len(listing) == len(CASES)
     for line, name in zip(listing, CASES):  # name, wall time of the default run, description
-        assert re.match(rf"{name} +~\d+ (s|min)  \S", line), line
+        assert re.match(rf"{name} +~\d+ (s|min|h)  \S", line), line
     assert main(["show", "cavity", "--set", "re=1000"]) == 0
     toml_text = capsys.readouterr().out
     p = _write(tmp_path, toml_text)

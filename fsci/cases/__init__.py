@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any, Callable, NamedTuple
 
-from fsci.cases import cavity, contact_cases, dfg, fsci_checks, moving_cylinder, sinking_disk, stamp, turek_hron
+from fsci.cases import cavity, contact_cases, dfg, fsci_checks, moving_cylinder, pump, sinking_disk, stamp, turek_hron
 
 
 class BuiltinCase(NamedTuple):
@@ -41,8 +41,12 @@ CASES: dict[str, BuiltinCase] = {
     "cavity": BuiltinCase("Lid-driven cavity, steady Navier-Stokes (--set re=100|1000)", cavity.cavity, "~15 s"),
     "dfg-2d-1": BuiltinCase("DFG 2D-1 flow around a cylinder (Re 20), cylinder embedded (CutFEM)",
                             dfg.dfg_2d_1, "~22 s"),
+    "dfg-2d-2": BuiltinCase("DFG 2D-2 flow around a cylinder (Re 100, periodic shedding), Crank-Nicolson, cylinder "
+                            "embedded (CutFEM)", dfg.dfg_2d_2, "~12 min"),
     "moving-cylinder": BuiltinCase("Cylinder with prescribed oscillation and pulsation, mass balance (45)-(46)",
                                    moving_cylinder.moving_cylinder, "~20 s"),
+    "pump": BuiltinCase("Paper Sec. 4.2: elastic valve pump, chamber squeezed periodically, two two-flap valves "
+                        "(--set A2=1 for A = 1 throughout)", pump.pump, "~3 h"),
     "lift-off": BuiltinCase("Elastic block on a slab in fluid lifts off when the ambient pressure reaches its load "
                             "(FSCI, extension)", fsci_checks.lift_off, "~1 min"),
     "contact-sweep": BuiltinCase("Quasi-static push through fluid onto a slab and back: continuity of the FSI -> "

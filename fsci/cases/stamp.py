@@ -82,7 +82,7 @@ def stamp() -> dict[str, Any]:
         "kind": "fsci",
         "description": "Rounded elastic stamp falls through viscous fluid onto a rigid slab, rests, and is lifted "
                        "off by a rising fluid pressure (paper Sec. 4.1, reconstructed)",
-        "parameters": {"n": 16, "q": 0.4, "p_rate": 0.0, "gamma0S": 1.0},
+        "parameters": {"n": 16, "q": 0.5, "p_rate": 4.29e-4, "gamma0S": 1.0},
         "variant": "navslip",
         "variants": VARIANTS,
         "bodies": [slab_body(), stamp_body()],

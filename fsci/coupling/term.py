@@ -448,7 +448,8 @@ class CouplingTerm:
         f = system.fluid
         mu, sym = (1.0, 0.0) if f is None else (f.mu, f.sym)
         fprm = np.zeros(5) if f is None else f.cell_parameters(ctx)
-        shape = f is not None and self.iset.shape_derivative
+        # the shape derivative is the derivative of the re-cut residual: not while the cut is frozen
+        shape = f is not None and self.iset.shape_derivative and not getattr(system, "_cut_frozen", False)
         tk.assemble_pieces(d["z"], d["ip"], d["fp"], d["Xo"], d["prmo"], d["Xm"], d["prmm"], d["W"], d["vq"],
                            d["kap"], d["Xe"], d["We"], d["vqe"], d["Vo"], d["bq"], fprm, shape, mu, sym, self.sadj,
                            self.variant33, *weights, self.gp, self.gw, d["conn"], asm.positions(d["conn"]),
@@ -470,7 +471,8 @@ class CouplingTerm:
         out = np.zeros((len(d["ip"]), len(self.gp), tk.N_OUT))
         self._run(system, ctx, d, asm, (0.0, 1.0, 0.0), out)
         st = system.layout.start
-        old = {f"solid{i}": asm.rhs[st[s.gnode][:, None] + np.arange(2)].copy() for i, s in enumerate(system.solids)}
+        old = {f"solid{i}": asm.rhs[st[s.gnode][:, None] + np.arange(2)].copy()
+               for i, s in enumerate(system.solids) if s.has_dofs}  # prescribed bodies have no rows
         if system.fluid is not None:
             f = system.fluid
             arr = np.zeros((f.grid.n_nodes, 3))
@@ -490,7 +492,8 @@ class CouplingTerm:
             st = asm.layout.start
             c = 1.0 - ctx.theta
             for i, s in enumerate(system.solids):
-                asm.rhs[st[s.gnode][:, None] + np.arange(2)] += c * self._old[f"solid{i}"]
+                if s.has_dofs:
+                    asm.rhs[st[s.gnode][:, None] + np.arange(2)] += c * self._old[f"solid{i}"]
             if system.fluid is not None:
                 f = system.fluid
                 act = np.nonzero(f.active)[0]

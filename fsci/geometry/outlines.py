@@ -26,7 +26,7 @@ class Outline:
     name: str
     x: np.ndarray  # current node coordinates (n, 2)
     edges: np.ndarray  # coupling-interface edges Γ (k, 2), cell on the left
-    polygon: shapely.Geometry  # the body region
+    polygon: shapely.Geometry  # the region the body takes from the fluid (with dry cavities: included)
     all_edges: np.ndarray  # every boundary edge (for events between bodies)
 
     def normals(self) -> np.ndarray:
@@ -36,8 +36,9 @@ class Outline:
         return np.column_stack([d[:, 1], -d[:, 0]]) / L[:, None]
 
 
-def body_polygon(x: np.ndarray, loops: list[np.ndarray], name: str) -> shapely.Geometry:
-    """Polygon of a body from its boundary loops; raises :class:`GeometryError` if invalid."""
+def body_polygon(x: np.ndarray, loops: list[np.ndarray], name: str, dry_cavities: bool = False) -> shapely.Geometry:
+    """Polygon of a body from its boundary loops; raises :class:`GeometryError` if invalid.
+    With ``dry_cavities`` the enclosed cavities belong to the body's region (not fluid)."""
     shells, holes = [], []
     for loop in loops:
         p = x[loop]
@@ -51,7 +52,10 @@ def body_polygon(x: np.ndarray, loops: list[np.ndarray], name: str) -> shapely.G
     geom = polys[0] if len(polys) == 1 else shapely.MultiPolygon(polys)
     if not geom.is_valid:
         raise GeometryError(f"body '{name}': outline self-intersects ({explain_validity(geom)})")
-    return geom
+    if not dry_cavities:
+        return geom
+    filled = [shapely.Polygon(p.exterior) for p in polys]
+    return filled[0] if len(filled) == 1 else shapely.MultiPolygon(filled)
 
 
 def check_in_box(outline: Outline, box: tuple[float, float, float, float], tol: float) -> None:

@@ -140,41 +140,69 @@ def find_pieces(surfaces: list[Surface], own: int, radius: float, self_contact: 
 
 def _resolve_overlaps(surfaces, own, e, osf, f, s0, s1, d0, d1, radius, split) -> Pieces:
     """Keep, for every part of every own edge, the nearest opposite segment within the
-    cut-off; where candidates overlap the edge is split at all candidate end points."""
+    cut-off; where candidates overlap the edge is split at all candidate end points.
+
+    Vectorised over all edges at once: the sub-intervals of every edge (between consecutive
+    distinct candidate end points), every (sub-interval, candidate covering its midpoint) pair,
+    the gap of each pair at the midpoint, and per sub-interval the nearest candidate (the first
+    in (edge, s0) order among equals)."""
     so = surfaces[own]
-    out = []
+    z = np.zeros(0, dtype=np.int64)
+    empty = Pieces(z, z, z, np.zeros(0), np.zeros(0), z, z)
+    if len(e) == 0:
+        return empty
     order = np.lexsort((s0, e))
     e, osf, f, s0, s1, d0, d1 = e[order], osf[order], f[order], s0[order], s1[order], d0[order], d1[order]
-    starts = np.concatenate([[0], np.nonzero(np.diff(e))[0] + 1, [len(e)]])
-    for a, b in zip(starts[:-1], starts[1:]):
-        if b <= a:
-            continue
-        edge = e[a]
-        A = so.x[so.edges[edge, 0]][None]
-        B = so.x[so.edges[edge, 1]][None]
-        cuts = np.unique(np.concatenate([s0[a:b], s1[a:b]]))
-        for lo, hi in zip(cuts[:-1], cuts[1:]):
-            if hi - lo <= 1e-12:
-                continue
-            mid = 0.5 * (lo + hi)
-            cand = [c for c in range(a, b) if s0[c] <= mid <= s1[c]]
-            best, best_g = None, np.inf
-            for c in cand:
-                sf = surfaces[osf[c]]
-                P = sf.x[sf.edges[f[c], 0]][None]
-                Q = sf.x[sf.edges[f[c], 1]][None]
-                g, _ = _gap(A, B, P, Q, np.array([mid]))
-                if abs(g[0]) <= radius and abs(g[0]) < best_g:
-                    best, best_g = c, abs(g[0])
-            if best is None:
-                continue
-            # keep symbolic end points only where they are the candidate's own interval ends
-            dl = d0[best] if abs(lo - s0[best]) <= 1e-14 else -1
-            dh = d1[best] if abs(hi - s1[best]) <= 1e-14 else -1
-            out.append((edge, osf[best], f[best], lo, hi, dl, dh))
-    if not out:
-        z = np.zeros(0, dtype=np.int64)
-        return Pieces(z, z, z, np.zeros(0), np.zeros(0), z, z)
-    arr = list(zip(*out))
-    return Pieces(np.array(arr[0], np.int64), np.array(arr[1], np.int64), np.array(arr[2], np.int64),
-                  np.array(arr[3], float), np.array(arr[4], float), np.array(arr[5], np.int64), np.array(arr[6], np.int64))
+    starts = np.concatenate([[0], np.nonzero(np.diff(e))[0] + 1])
+    ends = np.concatenate([starts[1:], [len(e)]])
+    group = np.repeat(np.arange(len(starts)), ends - starts)  # group (own edge) of every candidate
+    # distinct end points per group, ascending: the sub-interval boundaries
+    gv = np.concatenate([group, group])
+    vals = np.concatenate([s0, s1])
+    o = np.lexsort((vals, gv))
+    gv, vals = gv[o], vals[o]
+    new_pt = np.ones(len(vals), dtype=bool)
+    new_pt[1:] = (gv[1:] != gv[:-1]) | (vals[1:] != vals[:-1])
+    gv, vals = gv[new_pt], vals[new_pt]
+    nxt = np.nonzero(gv[1:] == gv[:-1])[0]  # consecutive boundaries of one group
+    lo, hi, ig = vals[nxt], vals[nxt + 1], gv[nxt]
+    ok = hi - lo > 1e-12
+    lo, hi, ig = lo[ok], hi[ok], ig[ok]
+    if len(lo) == 0:
+        return empty
+    mid = 0.5 * (lo + hi)
+    # (sub-interval, candidate of its group) pairs whose candidate covers the midpoint
+    cnt = ends[ig] - starts[ig]
+    iv = np.repeat(np.arange(len(lo)), cnt)
+    c = starts[ig][iv] + (np.arange(len(iv)) - np.repeat(np.cumsum(cnt) - cnt, cnt))
+    cover = (s0[c] <= mid[iv]) & (mid[iv] <= s1[c])
+    iv, c = iv[cover], c[cover]
+    if len(iv) == 0:
+        return empty
+    edge = e[c]
+    A = so.x[so.edges[edge, 0]]
+    B = so.x[so.edges[edge, 1]]
+    P = np.empty((len(c), 2))
+    Q = np.empty((len(c), 2))
+    for k in np.unique(osf[c]):
+        m = osf[c] == k
+        sf = surfaces[k]
+        P[m] = sf.x[sf.edges[f[c[m]], 0]]
+        Q[m] = sf.x[sf.edges[f[c[m]], 1]]
+    g, _ = _gap(A, B, P, Q, mid[iv])
+    ag = np.abs(g)
+    keep = ag <= radius
+    iv, c, ag = iv[keep], c[keep], ag[keep]
+    if len(iv) == 0:
+        return empty
+    o = np.lexsort((c, ag, iv))  # per sub-interval: smallest |g|, then the first candidate
+    first = np.ones(len(o), dtype=bool)
+    first[1:] = iv[o][1:] != iv[o][:-1]
+    best = c[o][first]
+    j = iv[o][first]
+    lo, hi = lo[j], hi[j]
+    # keep symbolic end points only where they are the candidate's own interval ends
+    dl = np.where(np.abs(lo - s0[best]) <= 1e-14, d0[best], -1)
+    dh = np.where(np.abs(hi - s1[best]) <= 1e-14, d1[best], -1)
+    return Pieces(e[best].astype(np.int64), osf[best].astype(np.int64), f[best].astype(np.int64),
+                  lo.astype(float), hi.astype(float), dl.astype(np.int64), dh.astype(np.int64))

@@ -271,24 +271,31 @@ class QuantityEvaluator:
         return out
 
 
-EVENT_KINDS = ("falls_to_zero", "rises_from_zero")
+EVENT_KINDS = ("falls_to_zero", "rises_from_zero", "halves")
 
 
 def detect_event(history: list[dict[str, float]], name: str, of: str, when: str, value) -> dict[str, float]:
     """First step at which the history column ``of`` falls to zero after having been positive
-    (``falls_to_zero``, e.g. lift-off from a contact length) or becomes positive after having
-    been zero (``rises_from_zero``, e.g. first contact). Reports ``<name>_time`` and ``<name>`` =
-    ``value`` (an expression in t) at that time; NaN if it did not happen."""
+    (``falls_to_zero``, e.g. release of a contact), becomes positive after having been zero
+    (``rises_from_zero``, e.g. first contact), or falls below half of its largest value so far
+    (``halves``, e.g. the contact length of a body that starts to lift off while fluid creeps
+    under it). Reports ``<name>_time`` and ``<name>`` = ``value`` (an expression in t) at that
+    time; NaN if it did not happen."""
     was = None
+    peak = 0.0
     for row in history:
         v = row.get(of)
         if v is None:
             continue
         on = v > 0.0
-        if was is not None and ((when == "falls_to_zero" and was and not on) or (when == "rises_from_zero" and not was and on)):
+        hit = was is not None and ((when == "falls_to_zero" and was and not on)
+                                   or (when == "rises_from_zero" and not was and on)
+                                   or (when == "halves" and peak > 0.0 and v < 0.5 * peak))
+        if hit:
             t = row["time"]
             return {f"{name}_time": float(t), name: float(value(np.array([0.0]), np.array([0.0]), t)[0])}
         was = on
+        peak = max(peak, v)
     return {f"{name}_time": float("nan"), name: float("nan")}
 
 
