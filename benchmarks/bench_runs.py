@@ -22,11 +22,12 @@ from fsci.simulation import Simulation
 
 # name -> (case, overrides, wall time [s] recorded before (docs/performance.md), steps, Newton)
 ROWS: dict[str, tuple[str, list[str], float, int, int]] = {
-    "stamp-coarse": ("stamp", ["time.segments=[{until=20.0, dt=0.01}, {until=250.0, dt=0.2}]"], 456.0, 3150, 13739),
-    "stamp-fine": ("stamp", ["n=64", "time.segments=[{until=5.0, dt=0.01}]"], 1450.0, 500, 2717),
+    # q = 0.4: the load of the "before" runs (the falling phase before the calibration to q = 0.5)
+    "stamp-coarse": ("stamp", ["q=0.4", "time.segments=[{until=20.0, dt=0.01}, {until=250.0, dt=0.2}]"], 456.0, 3150, 13739),
+    "stamp-fine": ("stamp", ["q=0.4", "n=64", "time.segments=[{until=5.0, dt=0.01}]"], 1450.0, 500, 2717),
     "fsi1": ("turek-hron-fsi1", ["m=12", "nx=280", "ny=16"], 97.0, 2, 23),
     # the first fifth of stamp-fine (t <= 1); "before" pro-rated from the t <= 5 run (1450 s / 5)
-    "stamp-fine-1": ("stamp", ["n=64", "time.segments=[{until=1.0, dt=0.01}]"], 290.0, 100, 543),
+    "stamp-fine-1": ("stamp", ["q=0.4", "n=64", "time.segments=[{until=1.0, dt=0.01}]"], 290.0, 100, 543),
 }
 
 

@@ -72,16 +72,14 @@ def history(d: Path) -> dict[str, np.ndarray]:
 
 
 def events(h: dict[str, np.ndarray]) -> tuple[float, float]:
-    """(first contact, release) from the contact length; NaN if it did not happen."""
+    """(first contact, release) from the contact length; NaN if it did not happen. Release is
+    the first step from t = 1000 (the lifting load starts) without contact, so a bounce at first
+    contact does not count."""
     on = h["stamp_length_contact"] > 0
     t = h["time"]
     first = t[np.argmax(on)] if on.any() else np.nan
-    after = np.nonzero(on)[0]
-    rel = np.nan
-    if len(after):
-        off = np.nonzero(~on[after[0]:])[0]
-        if len(off):
-            rel = t[after[0] + off[0]]
+    off = np.nonzero(~on & (t >= 1000.0) & (np.cumsum(on) > 0))[0]
+    rel = t[off[0]] if len(off) else np.nan
     return float(first), float(rel)
 
 

@@ -42,7 +42,7 @@ CASES: dict[str, BuiltinCase] = {
     "dfg-2d-1": BuiltinCase("DFG 2D-1 flow around a cylinder (Re 20), cylinder embedded (CutFEM)",
                             dfg.dfg_2d_1, "~22 s"),
     "dfg-2d-2": BuiltinCase("DFG 2D-2 flow around a cylinder (Re 100, periodic shedding), Crank-Nicolson, cylinder "
-                            "embedded (CutFEM)", dfg.dfg_2d_2, "~12 min"),
+                            "embedded (CutFEM)", dfg.dfg_2d_2, "~15 min"),
     "moving-cylinder": BuiltinCase("Cylinder with prescribed oscillation and pulsation, mass balance (45)-(46)",
                                    moving_cylinder.moving_cylinder, "~20 s"),
     "pump": BuiltinCase("Paper Sec. 4.2: elastic valve pump, chamber squeezed periodically, two two-flap valves "

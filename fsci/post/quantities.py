@@ -260,7 +260,8 @@ class QuantityEvaluator:
             elif q.kind == "mass_balance" and history:
                 out[f"{q.name}_err1_max"] = float(max(h.get(f"{q.name}_err1", 0.0) for h in history))
             elif q.kind == "event":
-                out.update(detect_event(history, q.name, q.params["of"], q.params["when"], self._prepared[q.name]))
+                out.update(detect_event(history, q.name, q.params["of"], q.params["when"], self._prepared[q.name],
+                                        q.params.get("after")))
             elif q.kind == "value":
                 out[q.name] = float(q.params["value"])
             elif q.kind == "vortex_center":
@@ -274,18 +275,20 @@ class QuantityEvaluator:
 EVENT_KINDS = ("falls_to_zero", "rises_from_zero", "halves")
 
 
-def detect_event(history: list[dict[str, float]], name: str, of: str, when: str, value) -> dict[str, float]:
+def detect_event(history: list[dict[str, float]], name: str, of: str, when: str, value,
+                 after: float | None = None) -> dict[str, float]:
     """First step at which the history column ``of`` falls to zero after having been positive
     (``falls_to_zero``, e.g. release of a contact), becomes positive after having been zero
     (``rises_from_zero``, e.g. first contact), or falls below half of its largest value so far
     (``halves``, e.g. the contact length of a body that starts to lift off while fluid creeps
-    under it). Reports ``<name>_time`` and ``<name>`` = ``value`` (an expression in t) at that
-    time; NaN if it did not happen."""
+    under it). With ``after``, only steps at t ≥ ``after`` count (a release caused by a load
+    that starts then, not a bounce at first contact). Reports ``<name>_time`` and ``<name>`` =
+    ``value`` (an expression in t) at that time; NaN if it did not happen."""
     was = None
     peak = 0.0
     for row in history:
         v = row.get(of)
-        if v is None:
+        if v is None or (after is not None and row["time"] < after):
             continue
         on = v > 0.0
         hit = was is not None and ((when == "falls_to_zero" and was and not on)
