@@ -4,11 +4,16 @@ qualitative statements checked one by one, and the figures of docs/cases/stamp.m
 
     python benchmarks/stamp_study.py run [--jobs 2] [--dir results/stamp-study] [--only coarse|fine|gamma]
     python benchmarks/stamp_study.py report [--dir results/stamp-study]
+    python benchmarks/stamp_study.py snapshots
     python benchmarks/stamp_study.py --help
 
 ``run`` starts every missing run (a run whose results.json exists is not redone; an
 interrupted one continues from its checkpoint with ``fsci resume``); ``report`` reads the
-histories and writes the tables (printed, Markdown) and figures (docs/figures/stamp_*.png).
+histories and writes the tables (printed, Markdown) and figures (docs/figures/stamp_*.png);
+``snapshots`` reruns the coarse navslip case with large steps (0.5 / 2 / 20, the CI test's;
+events one step late at most) and draws the fields with the interface tractions just after
+first contact and just before release, and the gap and contact traction along the stamp at
+times around both events.
 Event times come from the contact length (length of the stamp's interface with C ≤ 0):
 first contact when it becomes positive, release when it returns to zero.
 """
@@ -199,9 +204,62 @@ def report(base: Path, fig_dir: Path) -> None:
         fig.savefig(fig_dir / "stamp_gamma.png", dpi=120)
 
 
+def snapshots(fig_dir: Path) -> None:
+    """Field snapshots at contact and release, gap and contact traction around both events."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from fsci.cases import get_case
+    from fsci.config import apply_override, problem_from_dict
+    from fsci.post.figures import snapshot_figure
+    from fsci.simulation import Simulation
+
+    case = get_case("stamp")
+    apply_override(case, "time.segments=[{until=20.0, dt=0.5}, {until=300.0, dt=2.0}, {until=2500.0, dt=20.0}]")
+    case["output"] = {"every": 0, "figures": False, "fields": False}
+    sim = Simulation(problem_from_dict(case))
+    term = sim.system.extra_terms[0]
+    profiles: list[tuple[float, np.ndarray]] = []
+    state = {"contact": False, "shot": set()}
+    window = (-0.8, 0.0, 0.0, 0.45)
+
+    def hook(s, ctx, rep) -> None:
+        t = s.t
+        L = term.body_summary(s.system, term.names.index("stamp"))["length_contact"]
+        if 240.0 <= t <= 300.0 or 2000.0 <= t <= 2200.0:
+            profiles.append((t, term.profile("stamp")))
+        if L > 0 and "contact" not in state["shot"]:
+            state["shot"].add("contact")
+            snapshot_figure(s.system, fig_dir / "stamp_snapshot_contact.png", f"first contact, t = {t:.4g}", window)
+        if t >= 1000.0 and 0 < L and "release" not in state["shot"]:
+            state["last"] = t
+        if t >= 1000.0 and L == 0 and "release" not in state["shot"] and state.get("last"):
+            state["shot"].add("release")
+            snapshot_figure(s.system, fig_dir / "stamp_snapshot_release.png", f"release, t = {t:.4g}", window)
+
+    sim.step_hooks.append(hook)
+    sim.run()
+    fig, ax = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
+    for col, (lo, hi) in enumerate(((240.0, 300.0), (2000.0, 2200.0))):
+        sel = [(t, p) for t, p in profiles if lo <= t <= hi and len(p)]
+        for t, p in sel[:: max(1, len(sel) // 6)]:
+            near = p[:, 0] > -0.3
+            ax[0, col].plot(p[near, 0], p[near, 3], label=f"t = {t:.4g}")
+            ax[1, col].plot(p[near, 0], p[near, 2], label=f"t = {t:.4g}")
+        ax[0, col].set_title("around first contact" if col == 0 else "around release")
+        ax[0, col].set_ylabel("gap g_n")
+        ax[1, col].set_ylabel("contact traction −σ̃_nn")
+        ax[1, col].set_xlabel("x along the stamp")
+        ax[0, col].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(fig_dir / "stamp_gap_traction.png", dpi=120)
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("action", choices=["run", "report"])
+    ap.add_argument("action", choices=["run", "report", "snapshots"])
     ap.add_argument("--dir", type=Path, default=ROOT / "results" / "stamp-study")
     ap.add_argument("--jobs", type=int, default=2, help="runs in parallel (default 2)")
     ap.add_argument("--only", choices=["coarse", "fine", "gamma"], help="a subset of the runs")
@@ -214,6 +272,9 @@ def main(argv: list[str] | None = None) -> None:
             for name, code in pool.map(lambda kv: start(kv[0], kv[1], args.dir), todo.items()):
                 print(f"{name}: exit {code}", flush=True)
         sys.exit(0)
+    if args.action == "snapshots":
+        snapshots(args.figures)
+        return
     report(args.dir, args.figures)
 
 

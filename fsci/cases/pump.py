@@ -32,7 +32,7 @@ from typing import Any
 
 C = 0.03  # channel half-height
 H = 0.05  # chamber half-height
-Y_OUT = 0.32  # outer surface of the structure (outside the box, |y| > 0.1755)
+Y_OUT = 0.42  # outer surface of the structure (outside the box, |y| > 0.1755; above the cavity Γ^P)
 X0, X1 = -0.05, 1.55  # ends of the structure (outside the box)
 CH0, CH1, RAMP = 0.45, 1.05, 0.06  # chamber and its ramps
 VALVES = (0.30, 1.25)  # flap attachments (left end on the wall)

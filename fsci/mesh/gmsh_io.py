@@ -52,6 +52,51 @@ def _compact(nodes: np.ndarray, cells: np.ndarray, edge_sets: dict[str, np.ndarr
     return mesh
 
 
+def _loop_polygon(loop: Sequence[Mapping[str, Any]], field: str):
+    """The loop as a shapely polygon (arcs sampled every 5°)."""
+    import shapely
+
+    pts: list[np.ndarray] = []
+    for pi, piece in enumerate(loop):
+        if "line" in piece:
+            pts.append(np.asarray(piece["line"], float).reshape(2, 2))
+        elif "arc" in piece:
+            arc = piece["arc"]
+            s, c, e = (np.asarray(arc[k], float) for k in ("start", "center", "end"))
+            a0 = math.atan2(*(s - c)[::-1])
+            da = (math.atan2(*(e - c)[::-1]) - a0 + math.pi) % (2 * math.pi) - math.pi  # the shorter arc
+            a = a0 + da * np.linspace(0.0, 1.0, max(2, math.ceil(abs(da) / math.radians(5)) + 1))
+            pts.append(c + np.linalg.norm(s - c) * np.column_stack([np.cos(a), np.sin(a)]))
+        else:
+            raise InputError(f"{field}[{pi}]", dict(piece), "a piece needs 'line' or 'arc'")
+    # pieces may run either way (gmsh reorients them): chain them
+    if len(pts) > 1 and min(np.linalg.norm(pts[0][0] - q) for q in (pts[1][0], pts[1][-1])) < \
+            min(np.linalg.norm(pts[0][-1] - q) for q in (pts[1][0], pts[1][-1])):
+        pts[0] = pts[0][::-1]
+    for k in range(1, len(pts)):
+        if np.linalg.norm(pts[k][0] - pts[k - 1][-1]) > np.linalg.norm(pts[k][-1] - pts[k - 1][-1]):
+            pts[k] = pts[k][::-1]
+    # each piece starts where the previous ended: drop the repeated (possibly rounded) point
+    return shapely.Polygon(np.vstack([pts[0]] + [q[1:] for q in pts[1:]]))
+
+
+def _check_loops(loops: Sequence[Sequence[Mapping[str, Any]]]) -> None:
+    """Every loop a simple closed curve, every hole strictly inside the outer loop and apart from
+    the other holes (gmsh may hang or abort on such input instead of reporting it)."""
+    polys = [_loop_polygon(loop, f"loops[{i}]") for i, loop in enumerate(loops)]
+    for i, p in enumerate(polys):
+        if not p.is_valid or p.area <= 0.0:
+            raise InputError(f"loops[{i}]", f"a loop of {len(loops[i])} pieces", "a closed loop that does not cross itself")
+    for i, p in enumerate(polys[1:], 1):
+        if not polys[0].contains(p) or polys[0].exterior.intersects(p.exterior):
+            raise InputError(f"loops[{i}]", f"a hole with bounds {tuple(round(v, 6) for v in p.bounds)}",
+                             f"a hole strictly inside the outer loop (bounds "
+                             f"{tuple(round(v, 6) for v in polys[0].bounds)})")
+        for j in range(1, i):
+            if p.intersects(polys[j]):
+                raise InputError(f"loops[{i}]", f"a hole touching loops[{j}]", "holes apart from each other")
+
+
 def mesh_outline(loops: Sequence[Sequence[Mapping[str, Any]]], h: float, *, h_max: float | None = None,
                  refine: Sequence[Mapping[str, Any]] = (), algorithm: int = 8) -> QuadMesh:
     """Mesh a 2D region bounded by closed loops of lines and arcs with quads.
@@ -86,6 +131,7 @@ def mesh_outline(loops: Sequence[Sequence[Mapping[str, Any]]], h: float, *, h_ma
         raise InputError("h", h, "a positive element size")
     if not loops:
         raise InputError("loops", loops, "at least one closed loop")
+    _check_loops(loops)
     initialized_here = not gmsh.isInitialized()
     if initialized_here:
         gmsh.initialize(interruptible=False)
