@@ -2,7 +2,7 @@
 the number of cut cells) and the stamp's mass-balance errors against h.
 
 Usage:  python benchmarks/fsi_figures.py sink [OUTDIR]
-        python benchmarks/fsi_figures.py stamp RUN_DIR [RUN_DIR ...]   (stamp-falling output dirs)
+        python benchmarks/fsi_figures.py stamp RUN_DIR [RUN_DIR ...]   (output dirs of `fsci run stamp` runs)
 """
 
 from __future__ import annotations

@@ -108,7 +108,7 @@ def pump() -> dict[str, Any]:
         "description": "Elastic valve pump: a chamber between two two-flap valves squeezed periodically "
                        "(paper Sec. 4.2, reconstructed)",
         "parameters": {"A2": 1.5},
-        "bodies": [structure("upper", 1, T_WALL, "=0.015", "=0.005"), structure("lower", -1, T_WALL, "=0.015", "=0.005")],
+        "bodies": [structure("upper", 1, T_WALL, "=0.02", "=0.0065"), structure("lower", -1, T_WALL, "=0.02", "=0.0065")],
         "contact": {"gamma0": 1.0, "weighting": "harmonic"},
         "fluid": {
             "rho": 1e-3,
@@ -129,7 +129,14 @@ def pump() -> dict[str, Any]:
             {"name": "mass", "type": "mass_balance"},
             {"name": "upper", "type": "interface_summary", "body": "upper"},
             {"name": "lower", "type": "interface_summary", "body": "lower"},
-            {"name": "p_chamber_minus_in", "type": "pressure_difference", "points": [[0.75, 0.0], [1.45, 0.0]]},
+            # pressures against the outlet (x = 0.02): chamber, and in front of / behind each valve
+            *({"name": f"p_{where}", "type": "pressure_difference", "points": [[x, 0.0], [0.02, 0.0]]}
+              for where, x in (("chamber", 0.75), ("left_valve_out", 0.20), ("left_valve_chamber", 0.36),
+                               ("right_valve_chamber", 1.15), ("right_valve_in", 1.32))),
+            # flap tips: the valve opening is 2 FLAP_TIP + (u_y upper) - (u_y lower)
+            *({"name": f"tip_{v}_{b}", "type": "point_displacement", "body": b, "component": 1,
+               "point": [xa - FLAP_DX + 0.5 * FLAP_W, sgn * (FLAP_TIP + 0.0005)]}
+              for v, xa in zip(("left", "right"), VALVES) for b, sgn in (("upper", 1), ("lower", -1))),
             {"name": "pieces", "type": "fluid_pieces"},
         ],
         "output": {"every": 50},
