@@ -113,7 +113,7 @@ def dfg_2d_2() -> dict[str, Any]:
     """Periodic shedding from a smooth start (inflow ramped over 0.5 s); periodic from t ≈ 5.
     c_L,max, c_D,max (``cl_osc_max``, ``cd_osc_max``) and the lift frequency (St = 0.1 f) over
     the last period. No reference checks: no affordable grid reaches the published intervals yet
-    (n = 20: c_L,max 13 % low, docs/validation.md "Time accuracy")."""
+    (n = 20: c_L,max 11 % low, c_D,max 2 % low, St within the interval; docs/validation.md "Time accuracy")."""
     return _dfg_case(
         "dfg-2d-2", "DFG 2D-2 flow around a cylinder (Re = 100, periodic vortex shedding), Crank-Nicolson, "
                     "cylinder embedded in the background grid",
