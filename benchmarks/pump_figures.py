@@ -1,0 +1,155 @@
+"""Figures and tables of the elastic valve pump (built-in case ``pump``, paper Sec. 4.2) from
+the history of a run (also of a run still in progress: history.csv is written every step).
+
+    fsci run pump --out results/pump                       # A = 1 on [0, 0.15], 1.5 after
+    python benchmarks/pump_figures.py results/pump [--figures docs/figures]
+    python benchmarks/pump_figures.py --geometry               # the reconstruction, drawn
+    python benchmarks/pump_figures.py --help
+
+Flow rates in the design direction (-x, the paper's convention): Q_in = -(outward flux through
+x = 1.5), Q_out = outward flux through x = 0; transported volume V(t) = ∫ Q_out dt, and per
+load cycle (period 0.05) the volume leaving through Γ^out. A valve's opening is the distance of
+its flap tips: 2 × 0.0035 (tip points at rest) + u_y(upper tip) − u_y(lower tip).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+PERIOD = 0.05
+TIP_GAP = 2 * 0.0035  # distance of the two tip points at rest (fsci/cases/pump.py)
+
+
+def load(run: Path) -> dict[str, np.ndarray]:
+    r = np.genfromtxt(run / "history.csv", delimiter=",", names=True)
+    return {k: r[k] for k in r.dtype.names}
+
+
+def per_cycle(t: np.ndarray, dt: np.ndarray, q: np.ndarray) -> list[tuple[int, float, bool]]:
+    """(cycle, volume through the boundary in that cycle, complete?) for every started cycle
+    (θ = 1: the flux of a step is its end-of-step value times its Δt)."""
+    out = []
+    for k in range(int(np.ceil(t[-1] / PERIOD - 1e-9))):
+        m = (t > k * PERIOD + 1e-12) & (t <= (k + 1) * PERIOD + 1e-12)
+        out.append((k + 1, float(np.sum(q[m] * dt[m])), bool(t[-1] >= (k + 1) * PERIOD - 1e-12)))
+    return out
+
+
+def report(run: Path, fig_dir: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    h = load(run)
+    t, dt = h["time"], h["dt"]
+    q_in, q_out = -h["flow_in"], h["flow_out"]
+    vol_out = np.cumsum(q_out * dt)
+    vol_in = np.cumsum(q_in * dt)
+    print(f"run {run}: t = {t[-1]:.4g}, {len(t)} steps, Newton per step {h['newton_iterations'].mean():.2f}, "
+          f"max Φ¹_err {h['mass_err1'].max():.2g}, fluid pieces {int(h['pieces'].min())}..{int(h['pieces'].max())}")
+    print("| cycle | A | volume out (design direction) | volume in | complete |")
+    print("|---|---|---|---|---|")
+    cin = dict((k, v) for k, v, _ in per_cycle(t, dt, q_in))
+    for k, v, done in per_cycle(t, dt, q_out):
+        print(f"| {k} | {1.0 if k <= 3 else 1.5} | {v:.4g} | {cin[k]:.4g} | {'yes' if done else 'no'} |")
+    opening = {v: TIP_GAP + h[f"tip_{v}_upper"] - h[f"tip_{v}_lower"] for v in ("left", "right")}
+    for v, g in opening.items():
+        closed = t[g < 0.2 * TIP_GAP]
+        print(f"{v} valve: opening {g.min():.3g} .. {g.max():.3g}; nearly closed (< 20 % of rest) during "
+              f"{len(closed)} steps" + (f", first at t = {closed[0]:.4g}" if len(closed) else ""))
+    fig_dir.mkdir(parents=True, exist_ok=True)
+    fig, ax = plt.subplots(2, 2, figsize=(12, 7), sharex=True)
+    ax[0, 0].plot(t, q_in, label="Q_in (x = 1.5)")
+    ax[0, 0].plot(t, q_out, label="Q_out (x = 0)")
+    ax[0, 0].set_ylabel("flow rate, design direction −x")
+    ax[0, 1].plot(t, vol_out, label="∫ Q_out dt")
+    ax[0, 1].plot(t, vol_in, "--", label="∫ Q_in dt")
+    ax[0, 1].set_ylabel("transported volume")
+    for v, g in opening.items():
+        ax[1, 0].plot(t, g, label=f"{v} valve")
+    ax[1, 0].set_ylabel("valve opening (tip distance)")
+    ax[1, 1].plot(t, h["p_chamber"], label="chamber")
+    for name in ("left_valve_out", "left_valve_chamber", "right_valve_chamber", "right_valve_in"):
+        ax[1, 1].plot(t, h[f"p_{name}"], lw=0.8, label=name.replace("_", " "))
+    ax[1, 1].set_ylabel("pressure − p(outlet)")
+    for a in ax.ravel():
+        for k in range(1, int(t[-1] / PERIOD) + 1):
+            a.axvline(k * PERIOD, color="0.85", lw=0.6)
+        a.legend(fontsize=7)
+    for a in ax[1]:
+        a.set_xlabel("t")
+    fig.tight_layout()
+    fig.savefig(fig_dir / "pump_history.png", dpi=120)
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    for body in ("upper", "lower"):
+        ax.plot(t, h[f"{body}_length_contact"], label=f"{body}: contact length (C ≤ 0)")
+    ax.plot(t, h["case_II"] + h["case_III"] + h["case_IV"], "k:", lw=0.8, label="points in cases II-IV")
+    ax.set_xlabel("t")
+    ax.set_yscale("symlog", linthresh=1e-3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(fig_dir / "pump_contact.png", dpi=120)
+
+
+def geometry(fig_dir: Path) -> None:
+    """The reconstructed geometry: solid meshes, fluid box, Γ^P, valves, with the chosen sizes."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import PolyCollection
+
+    from fsci.cases import get_case, pump
+    from fsci.config import problem_from_dict
+
+    prob = problem_from_dict(get_case("pump"))
+    fig, axes = plt.subplots(2, 1, figsize=(12, 8.5), gridspec_kw={"height_ratios": [2, 1.2]})
+    for ax in axes:
+        for b in prob.bodies:
+            m = b.mesh
+            ax.add_collection(PolyCollection(m.nodes[m.cells], facecolors="0.85", edgecolors="0.4", linewidths=0.15))
+        ax.add_patch(plt.Rectangle((0.0, -0.1755), 1.5, 0.351, fill=False, ec="tab:blue", lw=1.2))
+        ax.set_aspect("equal")
+    ax = axes[0]
+    ax.set_xlim(-0.08, 1.58)
+    ax.set_ylim(-0.45, 0.45)
+    cx = 0.5 * (pump.CH0 + pump.CH1)
+    ax.annotate("Γ^P (cavity, pressure load)", (cx, pump.H + pump.T_WALL + 2 * pump.R_P), (cx + 0.25, 0.43),
+                arrowprops={"arrowstyle": "->"}, fontsize=8)
+    ax.text(0.02, -0.165, "fluid box 240 × 54 cells", color="tab:blue", fontsize=8)
+    ax.text(0.01, 0.19, "Γ^out (x = 0)", fontsize=8)
+    ax.text(1.36, 0.19, "Γ^in (x = 1.5)", fontsize=8)
+    ax.set_title(f"chamber x ∈ [{pump.CH0}, {pump.CH1}], half-height {pump.H}; channel half-height {pump.C}; "
+                 f"wall over the chamber {pump.T_WALL}; cavity radius {pump.R_P}", fontsize=9)
+    ax = axes[1]  # the left valve, enlarged
+    xa = pump.VALVES[0]
+    ax.set_xlim(xa - 0.12, xa + 0.07)
+    ax.set_ylim(-0.045, 0.045)
+    ax.set_title(f"valve (left; the right one at x = {pump.VALVES[1]} is the same): flaps {pump.FLAP_W} thick, "
+                 f"reaching {pump.FLAP_DX} in −x, tips ±{pump.FLAP_TIP}", fontsize=9)
+    fig.tight_layout()
+    fig_dir.mkdir(parents=True, exist_ok=True)
+    fig.savefig(fig_dir / "pump_geometry.png", dpi=130)
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("run", type=Path, nargs="?", help="output folder of `fsci run pump`")
+    ap.add_argument("--geometry", action="store_true", help="draw the reconstructed geometry")
+    ap.add_argument("--figures", type=Path, default=ROOT / "docs" / "figures")
+    args = ap.parse_args(argv)
+    if args.geometry:
+        geometry(args.figures)
+    if args.run is not None:
+        report(args.run, args.figures)
+    elif not args.geometry:
+        ap.error("give a run folder or --geometry")
+
+
+if __name__ == "__main__":
+    main()
