@@ -138,8 +138,12 @@ class Simulation:
             ctx = StepContext(self.t, self.t + dt, dt, p.time.theta, static)
             try:
                 self._in_solve = True  # a signal now stops at once: the step start is restored
-                self.system.begin_step(ctx)
-                rep = self.solve_step(ctx)
+                try:
+                    self.system.begin_step(ctx)
+                except SolverError as exc:  # the predicted start cannot be cut: a smaller step predicts less
+                    rep = NewtonReport(False, 0, reason=f"step start cannot be evaluated: {exc}")
+                else:
+                    rep = self.solve_step(ctx)
             except KeyboardInterrupt:
                 restore(self.system, saved)  # back to the last completed step for the checkpoint
                 raise

@@ -216,3 +216,58 @@ def test_interrupt_keeps_a_resumable_checkpoint(monkeypatch, tmp_path):
     monkeypatch.setattr(simulation_module, "solve_nonlinear", real)
     assert main(["resume", str(out)]) == 0
     assert read_checkpoint(out)[1]["step"] == 6
+
+
+class _Square:
+    """R(x) = x² − 4 with x > 3 unevaluable (an iterate whose outline would cross itself)."""
+
+    def __init__(self, x0: float) -> None:
+        self.x = np.array([x0])
+        self.layout = object()
+        self.field_dofs = {"x": np.array([0])}
+        self.evaluated: list[float] = []
+
+    def gather(self) -> np.ndarray:
+        return self.x.copy()
+
+    def scatter(self, x: np.ndarray) -> None:
+        self.x = x.copy()
+
+    def assemble(self, ctx, want_matrix: bool = True):
+        if self.x[0] > 3.0:
+            raise ArithmeticError("cannot be evaluated")
+        self.evaluated.append(float(self.x[0]))
+        J = np.array([[2.0 * self.x[0]]])
+
+        class Asm:
+            rhs = self.x ** 2 - 4.0
+            pattern = type("P", (), {"key": None})()
+
+            @staticmethod
+            def matrix():
+                return J
+
+        return Asm()
+
+
+class _Dense:
+    def new_system(self) -> None:
+        pass
+
+    def solve(self, A, b, key):
+        return np.linalg.solve(A, b)
+
+
+def test_newton_backtracks_from_an_iterate_it_cannot_evaluate():
+    """From x = 0.5 the full Newton update of x² = 4 lands at 4.25, which cannot be evaluated;
+    half of it (2.375) can, and Newton converges to 2 without cutting the step. With the first
+    iterate unevaluable as well there is nothing to go back to: a failed solve naming it."""
+    from fsci.problem import SolverSettings
+
+    ctx = StepContext(0.0, 1.0, 1.0, 1.0, True)
+    sys_ = _Square(0.5)
+    rep = solve_nonlinear(sys_, ctx, SolverSettings(tol_residual=1e-12, tol_increment=1e-12), _Dense())
+    assert rep.converged and sys_.x[0] == pytest.approx(2.0, rel=1e-12)
+    assert sys_.evaluated[1] == pytest.approx(0.5 + 0.5 * 3.75)
+    rep = solve_nonlinear(_Square(3.5), ctx, SolverSettings(), _Dense())
+    assert not rep.converged and "iterate 1 cannot be evaluated" in rep.reason

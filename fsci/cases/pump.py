@@ -18,7 +18,7 @@ Chosen here (docs/cases/pump.md, fixed for every run):
 * Γ^P: a circular cavity (radius 0.15) in the upper body over the chamber, leaving a wall of
   thickness ``T_WALL`` over it; the pressure in the cavity pushes the wall into the chamber
   (the body's key ``dry_cavities``: the cavity is not fluid);
-* each valve: two flaps (thickness 0.014, length ≈ 0.07) attached to the channel walls and
+* each valve: two flaps (0.035 wide along x, 0.014 thick across, length ≈ 0.07) attached to the channel walls and
   inclined towards -x, their tips 0.006 apart at rest: flow in -x opens them, flow in +x presses
   the tips together (the valve closes by contact); valves at x ≈ 0.3 (outflow side) and 1.25
   (inflow side);
@@ -36,7 +36,7 @@ Y_OUT = 0.42  # outer surface of the structure (outside the box, |y| > 0.1755; a
 X0, X1 = -0.05, 1.55  # ends of the structure (outside the box)
 CH0, CH1, RAMP = 0.45, 1.05, 0.06  # chamber and its ramps
 VALVES = (0.30, 1.25)  # flap attachments (left end on the wall)
-FLAP_W, FLAP_DX, FLAP_TIP = 0.014, 0.06, 0.003  # flap thickness (along x), x-reach, tip |y|
+FLAP_W, FLAP_DX, FLAP_TIP = 0.035, 0.06, 0.003  # flap width along x (0.014 across), x-reach, tip |y|
 T_WALL = 0.02  # thickness of the wall between the chamber and the cavity Γ^P
 R_P = 0.15  # radius of the cavity Γ^P over the chamber
 

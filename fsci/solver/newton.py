@@ -23,6 +23,7 @@ from fsci.solver.linear import LinearSolver
 
 DAMP_DOWN = 0.75
 DAMP_UP = 0.875
+BACKTRACK = 4  # halvings of a Newton update whose iterate cannot be evaluated, before the step is cut
 
 
 @dataclass
@@ -58,16 +59,28 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
     r0: dict[str, float] | None = None
     inc_norms: dict[str, float] | None = None
     totals: list[float] = []
+    last: tuple[np.ndarray, np.ndarray, float] | None = None  # state before the last update, update, length
+    last_layout = None  # the dof layout ``last`` belongs to
     for it in range(1, settings.max_iterations + 2):
-        try:
-            layout_changed = system.before_iteration(it) if hasattr(system, "before_iteration") else False
-            asm = system.assemble(ctx, want_matrix=True)
-        except (SolverError, ArithmeticError) as exc:
-            # an iterate the model cannot evaluate (outline leaving the box, degenerate element):
-            # a failed solve, which the time loop retries with a smaller step
-            report.reason = f"iterate {it} cannot be evaluated: {exc}"
-            report.iterations = it - 1
-            return report
+        for halving in range(BACKTRACK + 1):
+            try:
+                layout_changed = system.before_iteration(it) if hasattr(system, "before_iteration") else False
+                asm = system.assemble(ctx, want_matrix=True)
+                break
+            except (SolverError, ArithmeticError) as exc:
+                # an iterate the model cannot evaluate (an outline crossing itself or leaving the
+                # box, a degenerate element): go back half the last update (a thin flap swung
+                # through itself by a full Newton step); if that does not help, a failed solve,
+                # which the time loop retries with a smaller step
+                if last is None or halving == BACKTRACK or last_layout is not system.layout:
+                    report.reason = f"iterate {it} cannot be evaluated: {exc}"
+                    report.iterations = it - 1
+                    return report
+                x_old, dx_old, lam = last[0], last[1], 0.5 * last[2]
+                last = (x_old, dx_old, lam)
+                x = x_old + lam * dx_old
+                system.scatter(x)
+                inc_norms = _norms(lam * dx_old, system.field_dofs, "inf")
         if layout_changed:
             # the ACTIVE set changed: state transferred, Newton restarted (damping and residual
             # history reset, as 4C's outer loop); the iteration count goes on
@@ -117,6 +130,7 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
             report.reason = "non-finite Newton increment"
             report.iterations = solves
             return report
+        last, last_layout = (x, dx, lam), system.layout
         x = x + lam * dx
         system.scatter(x)
         inc_norms = _norms(lam * dx, system.field_dofs, "inf")
