@@ -76,7 +76,7 @@ class Simulation:
     def resume(cls, out_dir: Path, overrides: list[str] | None = None, monitor=None) -> "Simulation":
         """Continue the run whose checkpoint and case.toml are in ``out_dir``."""
         from fsci.config import apply_override, load_toml, problem_from_dict
-        from fsci.io.checkpoint import read_checkpoint
+        from fsci.io.checkpoint import read_checkpoint, stored_meshes
         from fsci.io.vtk import VTKWriter
 
         out_dir = Path(out_dir)
@@ -85,7 +85,10 @@ class Simulation:
         for o in overrides or []:
             apply_override(case, o)
         base = Path(meta["base_dir"]) if meta.get("base_dir") else None
-        sim = cls(problem_from_dict(case, base), out_dir, monitor, base_dir=base)
+        problem = problem_from_dict(case, base)
+        for b, mesh in stored_meshes(state).items():  # the meshes the run ran on (gmsh may differ)
+            problem.bodies[b].mesh = mesh
+        sim = cls(problem, out_dir, monitor, base_dir=base)
         restore(sim.system, state)
         sim.t = meta["t"]
         sim.step = meta["step"]

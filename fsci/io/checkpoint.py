@@ -52,8 +52,39 @@ def write_checkpoint(sim, directory: Path) -> Path:
     }
     blob = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
     with replacing(directory / NPZ) as tmp:
-        np.savez(tmp, **state, **{_META: blob})
+        np.savez(tmp, **state, **mesh_arrays(sim.problem), **{_META: blob})
     return directory / NPZ
+
+
+def mesh_arrays(problem) -> dict[str, np.ndarray]:
+    """Every body's mesh as arrays (``mesh<b>.nodes``, ``.cells``, ``.node.<set>``,
+    ``.edge.<set>``): a resumed run continues on the meshes it ran on, even if the mesher
+    would not reproduce them."""
+    out = {}
+    for b, body in enumerate(problem.bodies):
+        m = body.mesh
+        out[f"mesh{b}.nodes"], out[f"mesh{b}.cells"] = m.nodes, m.cells
+        out.update({f"mesh{b}.node.{k}": v for k, v in m.node_sets.items()})
+        out.update({f"mesh{b}.edge.{k}": v for k, v in m.edge_sets.items()})
+    return out
+
+
+def stored_meshes(state: dict[str, np.ndarray]) -> dict[int, "QuadMesh"]:
+    """The meshes a checkpoint holds, by body index (removed from ``state``)."""
+    from fsci.mesh.quadmesh import QuadMesh
+
+    parts: dict[int, dict] = {}
+    for key in [k for k in state if k.startswith("mesh")]:
+        head, _, rest = key.partition(".")
+        b = int(head[4:])
+        d = parts.setdefault(b, {"node_sets": {}, "edge_sets": {}})
+        arr = state.pop(key)
+        if rest in ("nodes", "cells"):
+            d[rest] = arr
+        else:
+            kind, _, name = rest.partition(".")
+            d[f"{kind}_sets"][name] = arr
+    return {b: QuadMesh(d["nodes"], d["cells"], d["node_sets"], d["edge_sets"]) for b, d in parts.items()}
 
 
 def read_checkpoint(directory: Path) -> tuple[dict[str, np.ndarray], dict]:
