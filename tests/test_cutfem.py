@@ -343,6 +343,27 @@ def test_thin_body_warns_with_numbers():
     assert msgs and "0.03" in msgs[0] and "0.1" in msgs[0]
 
 
+def test_thin_part_of_a_body_warns_where_it_is():
+    """A block (0.3 × 0.2, cells of 0.1) with a fin 0.02 thick: one warning naming the fin's
+    place; the block alone, right-angled corners and all, gets none."""
+    def block(fin: bool) -> list[dict]:
+        pts = [[0.3, 0.4], [0.6, 0.4], [0.6, 0.49], [0.8, 0.49], [0.8, 0.51], [0.6, 0.51], [0.6, 0.6], [0.3, 0.6]]
+        if not fin:
+            pts = [p for p in pts if p[0] <= 0.6 and p[1] not in (0.49, 0.51)]
+        return [{"line": [a, b]} for a, b in zip(pts, pts[1:] + pts[:1])]
+
+    for fin in (True, False):
+        case = _cut_case({"mesh": {"type": "outline", "loops": [block(fin)], "h": 0.01}})
+        with warnings.catch_warnings(record=True) as rec:
+            warnings.simplefilter("always")
+            System(problem_from_dict(case))
+        msgs = [str(w.message) for w in rec if issubclass(w.category, FsciWarning)]
+        if fin:
+            assert len(msgs) == 1 and "thinner than the fluid cells" in msgs[0] and "near (0.7" in msgs[0], msgs
+        else:
+            assert not msgs, msgs
+
+
 def test_cli_reports_geometry_errors(tmp_path, capsys):
     import tomli_w
 

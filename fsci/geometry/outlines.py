@@ -71,9 +71,12 @@ def check_in_box(outline: Outline, box: tuple[float, float, float, float], tol: 
         )
 
 
+THIN_AREA = 0.25  # area (in cells) of a part thinner than a cell that is worth a warning
+
+
 def warn_if_thin(outline: Outline, h: float) -> float:
-    """Warn if the body is thinner than the fluid cell size; returns its thickness estimate
-    (diameter of the largest inscribed circle)."""
+    """Warn if the body, or a part of it, is thinner than the fluid cell size; returns its
+    thickness estimate (diameter of the largest inscribed circle)."""
     radius = shapely.maximum_inscribed_circle(outline.polygon, tolerance=0.01 * h).length
     thickness = 2.0 * radius
     if thickness < h:
@@ -81,4 +84,16 @@ def warn_if_thin(outline: Outline, h: float) -> float:
             f"body '{outline.name}' is {thickness:.4g} thick (largest inscribed circle) but fluid cells are "
             f"{h:.4g} wide: fluid on both sides shares nodes (one dof set per node); refine the fluid grid",
             FsciWarning, stacklevel=2)
+        return thickness
+    # parts thinner than a cell (a fin, the wedge of a valve flap): what an opening by h/2
+    # removes, beyond the rounding of corners (a right angle loses 0.05 h²)
+    thin = shapely.difference(outline.polygon, outline.polygon.buffer(-0.5 * h).buffer(0.5 * h))
+    parts = [g for g in getattr(thin, "geoms", [thin]) if g.area > THIN_AREA * h * h]
+    if parts:
+        big = max(parts, key=lambda g: g.area)
+        c = big.centroid
+        warnings.warn(
+            f"body '{outline.name}' has {len(parts)} part(s) thinner than the fluid cells ({h:.4g}), the largest "
+            f"near ({c.x:.4g}, {c.y:.4g}): fluid on both sides of it shares nodes (one dof set per node); "
+            "refine the fluid grid there", FsciWarning, stacklevel=2)
     return thickness
