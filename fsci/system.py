@@ -88,7 +88,7 @@ class System:
             g = f.grid
             for o in outlines:
                 h = float(np.max(np.hypot(*g.cell_size[g.locate(o.x)].T))) / np.sqrt(2.0)
-                warn_if_thin(o, h)
+                warn_if_thin(o, h, g.box)
         old = f.active.copy()
         f.set_cut(cut)
         self.cut = cut

@@ -74,9 +74,10 @@ def check_in_box(outline: Outline, box: tuple[float, float, float, float], tol: 
 THIN_AREA = 0.25  # area (in cells) of a part thinner than a cell that is worth a warning
 
 
-def warn_if_thin(outline: Outline, h: float) -> float:
-    """Warn if the body, or a part of it, is thinner than the fluid cell size; returns its
-    thickness estimate (diameter of the largest inscribed circle)."""
+def warn_if_thin(outline: Outline, h: float, box: tuple[float, float, float, float] | None = None) -> float:
+    """Warn if the body, or a part of it inside the fluid ``box`` (x0, x1, y0, y1), is thinner
+    than the fluid cell size; returns its thickness estimate (diameter of the largest inscribed
+    circle)."""
     radius = shapely.maximum_inscribed_circle(outline.polygon, tolerance=0.01 * h).length
     thickness = 2.0 * radius
     if thickness < h:
@@ -87,7 +88,13 @@ def warn_if_thin(outline: Outline, h: float) -> float:
         return thickness
     # parts thinner than a cell (a fin, the wedge of a valve flap): what an opening by h/2
     # removes, beyond the rounding of corners (a right angle loses 0.05 h²)
-    thin = shapely.difference(outline.polygon, outline.polygon.buffer(-0.5 * h).buffer(0.5 * h))
+    region = outline.polygon
+    if box is not None:  # no fluid outside the box: a body along its side has fluid on one side only
+        inside = shapely.box(box[0], box[2], box[1], box[3])
+        region = shapely.union(region, shapely.difference(inside.buffer(2.0 * h, join_style="mitre"), inside))
+    thin = shapely.difference(region, region.buffer(-0.5 * h).buffer(0.5 * h))
+    if box is not None:
+        thin = shapely.intersection(thin, inside)
     parts = [g for g in getattr(thin, "geoms", [thin]) if g.area > THIN_AREA * h * h]
     if parts:
         big = max(parts, key=lambda g: g.area)
