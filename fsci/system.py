@@ -88,7 +88,11 @@ class System:
             g = f.grid
             for o in outlines:
                 h = float(np.max(np.hypot(*g.cell_size[g.locate(o.x)].T))) / np.sqrt(2.0)
-                warn_if_thin(o, h, g.box)
+
+                def cell_h(x: float, y: float) -> float:
+                    return float(np.hypot(*g.cell_size[g.locate(np.array([[x, y]]))[0]])) / np.sqrt(2.0)
+
+                warn_if_thin(o, h, g.box, cell_h)
         old = f.active.copy()
         f.set_cut(cut)
         self.cut = cut

@@ -74,10 +74,21 @@ def check_in_box(outline: Outline, box: tuple[float, float, float, float], tol: 
 THIN_AREA = 0.25  # area (in cells) of a part thinner than a cell that is worth a warning
 
 
-def warn_if_thin(outline: Outline, h: float, box: tuple[float, float, float, float] | None = None) -> float:
+def _thin_parts(region, h: float, within=None) -> list:
+    """Parts of ``region`` (inside ``within``) thinner than ``h``: what an opening by h/2
+    removes, beyond the rounding of corners (a right angle loses 0.05 h²)."""
+    thin = shapely.difference(region, region.buffer(-0.5 * h).buffer(0.5 * h))
+    if within is not None:
+        thin = shapely.intersection(thin, within)
+    return [g for g in getattr(thin, "geoms", [thin]) if g.area > THIN_AREA * h * h]
+
+
+def warn_if_thin(outline: Outline, h: float, box: tuple[float, float, float, float] | None = None,
+                 local_h=None) -> float:
     """Warn if the body, or a part of it inside the fluid ``box`` (x0, x1, y0, y1), is thinner
-    than the fluid cell size; returns its thickness estimate (diameter of the largest inscribed
-    circle)."""
+    than the fluid cell size ``h`` (the largest near the body); with ``local_h(x, y)`` a part is
+    measured against the cells where it is (a grid refined there is enough). Returns the
+    thickness estimate of the body (diameter of the largest inscribed circle)."""
     radius = shapely.maximum_inscribed_circle(outline.polygon, tolerance=0.01 * h).length
     thickness = 2.0 * radius
     if thickness < h:
@@ -86,21 +97,21 @@ def warn_if_thin(outline: Outline, h: float, box: tuple[float, float, float, flo
             f"{h:.4g} wide: fluid on both sides shares nodes (one dof set per node); refine the fluid grid",
             FsciWarning, stacklevel=2)
         return thickness
-    # parts thinner than a cell (a fin, the wedge of a valve flap): what an opening by h/2
-    # removes, beyond the rounding of corners (a right angle loses 0.05 h²)
+    # parts thinner than a cell: a fin, the wedge of a valve flap
     region = outline.polygon
     if box is not None:  # no fluid outside the box: a body along its side has fluid on one side only
         inside = shapely.box(box[0], box[2], box[1], box[3])
         region = shapely.union(region, shapely.difference(inside.buffer(2.0 * h, join_style="mitre"), inside))
-    thin = shapely.difference(region, region.buffer(-0.5 * h).buffer(0.5 * h))
-    if box is not None:
-        thin = shapely.intersection(thin, inside)
-    parts = [g for g in getattr(thin, "geoms", [thin]) if g.area > THIN_AREA * h * h]
+    parts = [(g, h) for g in _thin_parts(region, h, inside if box is not None else None)]
+    if local_h is not None:  # measured again against the cells where each part is
+        parts = [(g, hl) for g, hl in ((g, float(local_h(g.centroid.x, g.centroid.y))) for g, _ in parts)
+                 if _thin_parts(shapely.intersection(region, g.buffer(4.0 * h)), hl, g.buffer(h))]
     if parts:
-        big = max(parts, key=lambda g: g.area)
+        big, hb = max(parts, key=lambda p: p[0].area)
         c = big.centroid
         warnings.warn(
-            f"body '{outline.name}' has {len(parts)} part(s) thinner than the fluid cells ({h:.4g}), the largest "
-            f"near ({c.x:.4g}, {c.y:.4g}): fluid on both sides of it shares nodes (one dof set per node); "
-            "refine the fluid grid there", FsciWarning, stacklevel=2)
+            f"body '{outline.name}' has {len(parts)} part(s) thinner than the fluid cells there ({hb:.4g}), the "
+            f"largest near ({c.x:.4g}, {c.y:.4g}): fluid on both sides of it shares nodes (one dof set per node); "
+            "refine the fluid grid there (the tip of a sharp wedge stays thinner than its cell on any grid)",
+            FsciWarning, stacklevel=2)
     return thickness
