@@ -47,7 +47,7 @@ CASES: dict[str, BuiltinCase] = {
                                    moving_cylinder.moving_cylinder, "~20 s"),
     "pump": BuiltinCase("Paper Sec. 4.2: elastic valve pump, chamber squeezed periodically, two two-flap valves "
                         "(reconstructed; --set A2=1 for A = 1 throughout; valve zones refined r = 4 times, "
-                        "--set r=1 for the paper's grid)", pump.pump, "~2 h"),
+                        "--set r=1 for the paper's grid)", pump.pump, "~3 h"),
     "lift-off": BuiltinCase("Elastic block on a slab in fluid lifts off when the ambient pressure reaches its load "
                             "(FSCI, extension)", fsci_checks.lift_off, "~1 min"),
     "contact-sweep": BuiltinCase("Quasi-static push through fluid onto a slab and back: continuity of the FSI -> "
