@@ -23,24 +23,11 @@ import time
 import numpy as np
 import scipy.sparse as sp  # noqa: F401
 
-from fsci.cases import get_case
-from fsci.config import apply_override, problem_from_dict
+from bench_cutfem import dfg_system  # the same DFG state as the cut/assembly timing
+
 from fsci.fields import StepContext
 from fsci.solver.linear import PardisoSolver
 from fsci.system import System
-
-
-def _system(n: int) -> tuple[System, StepContext]:
-    case = get_case("dfg-2d-1")
-    apply_override(case, f"n={n}")
-    system = System(problem_from_dict(case))
-    ctx = StepContext(0.0, 1.0, 1.0, 1.0, True)
-    system.begin_step(ctx)
-    f = system.fluid
-    X = f.grid.nodes
-    f.V[:, 0] = 1.2 * X[:, 1] * (0.41 - X[:, 1]) / 0.41 ** 2  # inflow profile everywhere
-    f.Vbar = f.V.copy()
-    return system, ctx
 
 
 def _matrix(system: System, ctx: StepContext, bulk_faces: bool) -> sp.csr_matrix:
@@ -95,7 +82,7 @@ def main(argv: list[str] | None = None) -> None:
     print("| n | pattern | ordering | unknowns | nnz/row | nnz(L+U) [M] | analysis [s] | factor [s] | solve [s] |")
     print("|---|---|---|---|---|---|---|---|---|")
     for n in args.n:
-        system, ctx = _system(n)
+        system, ctx = dfg_system(n)
         for label, bulk in (("CIP on all faces (default)", True), ("face terms near Γ only (9-node bulk)", False)):
             A = _matrix(system, ctx, bulk)
             for o in args.orderings:

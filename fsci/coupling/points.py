@@ -26,8 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fsci.geometry.search import Pieces, Surface, find_pieces
-from fsci.geometry.search import _gap as gap_along_normal
+from fsci.geometry.search import Pieces, Surface, find_pieces, gap_along_normal, segment_ends
 
 
 @dataclass
@@ -98,8 +97,7 @@ def _search(boundaries: list[BoundaryOf], radius: float, self_contact: bool, spl
         # but a surface seen through the own (thin) body: g_n = ∞ there
         so = surfaces[k]
         A, B = so.x[so.edges[pc.edge, 0]], so.x[so.edges[pc.edge, 1]]
-        P = np.array([surfaces[m].x[surfaces[m].edges[e, 0]] for m, e in zip(pc.opp_surface, pc.opp_edge)])
-        Q = np.array([surfaces[m].x[surfaces[m].edges[e, 1]] for m, e in zip(pc.opp_surface, pc.opp_edge)])
+        P, Q = segment_ends(surfaces, pc.opp_surface, pc.opp_edge)
         g, _ = gap_along_normal(A, B, P, Q, 0.5 * (pc.s0 + pc.s1))
         ok = g >= -0.5 * np.linalg.norm(B - A, axis=1)
         if not ok.all():

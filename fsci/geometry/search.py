@@ -69,7 +69,19 @@ def _project(A, B, P, Q):
     return sP, sQ
 
 
-def _gap(A, B, P, Q, s):
+def segment_ends(surfaces: list[Surface], surface: np.ndarray, edge: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """End points ``(P, Q)`` of the edges ``edge`` of the surfaces ``surface`` (one row per pair)."""
+    P = np.empty((len(edge), 2))
+    Q = np.empty((len(edge), 2))
+    for k in np.unique(surface):
+        m = surface == k
+        sf = surfaces[k]
+        P[m] = sf.x[sf.edges[edge[m], 0]]
+        Q[m] = sf.x[sf.edges[edge[m], 1]]
+    return P, Q
+
+
+def gap_along_normal(A, B, P, Q, s):
     """Gap and opposite coordinate η of the ray from A + s (B - A) along the normal of A->B."""
     t = B - A
     L = np.linalg.norm(t, axis=1)
@@ -126,7 +138,7 @@ def find_pieces(surfaces: list[Surface], own: int, radius: float, self_contact: 
         else:
             for m in range(n_fixed):
                 s = np.full(len(ie), (m + 0.5) / n_fixed)
-                g, eta = _gap(A[ie], B[ie], P[jf], Q[jf], s)
+                g, eta = gap_along_normal(A[ie], B[ie], P[jf], Q[jf], s)
                 ok = (eta >= 0.0) & (eta <= 1.0)
                 rows.append((ie[ok], np.full(ok.sum(), k), jf[ok], np.full(ok.sum(), m / n_fixed),
                              np.full(ok.sum(), (m + 1) / n_fixed), np.full(ok.sum(), -1), np.full(ok.sum(), -1)))
@@ -182,14 +194,8 @@ def _resolve_overlaps(surfaces, own, e, osf, f, s0, s1, d0, d1, radius, split) -
     edge = e[c]
     A = so.x[so.edges[edge, 0]]
     B = so.x[so.edges[edge, 1]]
-    P = np.empty((len(c), 2))
-    Q = np.empty((len(c), 2))
-    for k in np.unique(osf[c]):
-        m = osf[c] == k
-        sf = surfaces[k]
-        P[m] = sf.x[sf.edges[f[c[m]], 0]]
-        Q[m] = sf.x[sf.edges[f[c[m]], 1]]
-    g, _ = _gap(A, B, P, Q, mid[iv])
+    P, Q = segment_ends(surfaces, osf[c], f[c])
+    g, _ = gap_along_normal(A, B, P, Q, mid[iv])
     ag = np.abs(g)
     keep = ag <= radius
     iv, c, ag = iv[keep], c[keep], ag[keep]

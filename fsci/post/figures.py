@@ -46,13 +46,22 @@ def state_figure(system, path: Path, title: str = "") -> Path:
         pc = PolyCollection(polys, array=vals, cmap="viridis", edgecolors="none")
         ax.add_collection(pc)
         fig.colorbar(pc, ax=ax, label="|v|", shrink=0.8)
-    for s in system.solids:
-        x = s.X + s.U
-        ax.add_collection(PolyCollection(x[s.mesh.cells], facecolors="lightgray", edgecolors="k", linewidths=0.2))
+    _draw_solids(ax, system, 0.2)
     ax.autoscale_view()
     ax.set_aspect("equal")
     if title:
         ax.set_title(title)
+    return _save(fig, path)
+
+
+def _draw_solids(ax, system, linewidth: float) -> None:
+    """The solid meshes in their deformed configuration."""
+    for s in system.solids:
+        ax.add_collection(PolyCollection((s.X + s.U)[s.mesh.cells], facecolors="lightgray", edgecolors="k",
+                                         linewidths=linewidth))
+
+
+def _save(fig, path: Path) -> Path:
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)
@@ -89,9 +98,7 @@ def snapshot_figure(system, path: Path, title: str = "", window: tuple[float, fl
         pc = PolyCollection(polys, array=vals, cmap="viridis" if name == "|v|" else "coolwarm", edgecolors="none")
         ax.add_collection(pc)
         fig.colorbar(pc, ax=ax, label=name, shrink=0.8)
-        for s in system.solids:
-            x = s.X + s.U
-            ax.add_collection(PolyCollection(x[s.mesh.cells], facecolors="lightgray", edgecolors="k", linewidths=0.15))
+        _draw_solids(ax, system, 0.15)
         if len(out):
             t = out[:, [tk.O_TX, tk.O_TY]]
             scale = arrow_length / max(float(np.linalg.norm(t, axis=1).max()), 1e-300)
@@ -109,7 +116,4 @@ def snapshot_figure(system, path: Path, title: str = "", window: tuple[float, fl
             ax.autoscale_view()
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
