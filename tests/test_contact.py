@@ -213,3 +213,33 @@ def test_self_contact_jacobian():
     slot = np.unique(s.mesh.edge_sets["slot"])
     dofs = np.concatenate([system.layout.start[s.gnode[slot]], system.layout.start[s.gnode[slot]] + 1])[::3]
     check_jacobian(system, ctx, x0, h=1e-7, dofs=dofs, label="self-contact")
+
+
+def _strip_surface(body: int, y0: float, y1: float, n: int = 10):
+    """Counter-clockwise outline of the strip [0, 1] × [y0, y1], edges of length 1/n along x."""
+    from fsci.geometry.search import Surface
+
+    xs = np.linspace(0.0, 1.0, n + 1)
+    pts = np.array([[x, y0] for x in xs] + [[x, y1] for x in xs[::-1]])
+    m = len(pts)
+    edges = np.column_stack([np.arange(m), (np.arange(m) + 1) % m])
+    return Surface(body, pts, edges, np.zeros(m, dtype=np.int64), np.zeros(m, dtype=np.int64))
+
+
+@pytest.mark.parametrize("y_top_other", [-0.01, 0.002])
+def test_search_rejects_surfaces_seen_through_a_thin_body(y_top_other):
+    """A strip 0.01 thick with edges 0.1 long over a second strip, apart (top at y = -0.01) or
+    penetrating it by 0.002: the second strip's far side, 0.03 behind the first strip's top face,
+    is seen through the thin strip and is no contact partner; the near side is (gap +0.01, or the
+    penetration -0.002). A rule on the size of g_n (e.g. half an edge) cannot tell these apart."""
+    from fsci.geometry.search import find_pieces, gap_along_normal
+
+    own = _strip_surface(0, 0.0, 0.01)
+    other = _strip_surface(1, -0.02, y_top_other)
+    pc = find_pieces([own, other], 0, radius=0.1)
+    A, B = own.x[own.edges[pc.edge, 0]], own.x[own.edges[pc.edge, 1]]
+    P, Q = other.x[other.edges[pc.opp_edge, 0]], other.x[other.edges[pc.opp_edge, 1]]
+    g, _ = gap_along_normal(A, B, P, Q, 0.5 * (pc.s0 + pc.s1))
+    normal_y = own.normals()[pc.edge, 1]
+    assert len(pc) >= 10 and np.all(normal_y < -0.99)  # only the bottom face sees the other strip
+    np.testing.assert_allclose(g, -(y_top_other - 0.0), atol=1e-12)

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fsci.geometry.search import Pieces, Surface, find_pieces, gap_along_normal, segment_ends
+from fsci.geometry.search import Surface, find_pieces
 
 
 @dataclass
@@ -91,17 +91,6 @@ def _search(boundaries: list[BoundaryOf], radius: float, self_contact: bool, spl
     out: dict[int, tuple[np.ndarray, ...]] = {}
     for k, b in enumerate(bodies):
         pc = find_pieces(surfaces, k, radius, self_contact, split, n_fixed)
-        if len(pc) == 0:
-            continue
-        # an opposite segment behind the surface by more than half its edge is not a penetration
-        # but a surface seen through the own (thin) body: g_n = ∞ there
-        so = surfaces[k]
-        A, B = so.x[so.edges[pc.edge, 0]], so.x[so.edges[pc.edge, 1]]
-        P, Q = segment_ends(surfaces, pc.opp_surface, pc.opp_edge)
-        g, _ = gap_along_normal(A, B, P, Q, 0.5 * (pc.s0 + pc.s1))
-        ok = g >= -0.5 * np.linalg.norm(B - A, axis=1)
-        if not ok.all():
-            pc = Pieces(*(getattr(pc, f)[ok] for f in ("edge", "opp_surface", "opp_edge", "s0", "s1", "d0", "d1")))
         if len(pc) == 0:
             continue
         ob = np.array(bodies, dtype=np.int64)[pc.opp_surface]

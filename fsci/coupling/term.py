@@ -169,7 +169,8 @@ class CouplingTerm:
 
     def _geometry_key(self, system) -> tuple:
         if system.fluid is not None:
-            return ("cut", id(system.cut))
+            # the cut object itself, not its id(): a freed cut's id is reused by a new one
+            return ("cut", system.cut)
         return ("dry",) + tuple(s.U.tobytes() for s, c in zip(system.solids, self._contact) if len(c))
 
     def pieces(self, system) -> CouplingPieces:

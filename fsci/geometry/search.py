@@ -10,8 +10,9 @@ element edges (paper Remark 9), each piece seeing one opposite segment.
 
 Rules: the opposite segment must face the edge (``n_e · n_f < -0.1``, 4C's criterion); the gap
 ``g_n = (x̌ - x)·n`` at the piece's midpoint must satisfy ``|g_n| <= radius`` (beyond the
-cut-off ``g_n = ∞``); where several opposite segments are hit, the nearest (smallest ``|g_n|``)
-wins. (The same projection will give the gap of the slip-length law (40) once contact and
+cut-off ``g_n = ∞``); a segment behind the surface (``g_n < 0``) whose ray crosses another edge
+of the own surface is seen through a thin part of the own body, not penetrated, and is no
+candidate; where several opposite segments are hit, the nearest (smallest ``|g_n|``) wins. (The same projection will give the gap of the slip-length law (40) once contact and
 fluid are combined.)
 
 End-point descriptors: ``-1`` fixed parameter (``s0``/``s1`` as given), ``0``/``1`` the
@@ -93,6 +94,26 @@ def gap_along_normal(A, B, P, Q, s):
     eta = (-w[:, 0] * n[:, 1] + n[:, 0] * w[:, 1]) / det
     g = (d[:, 0] * w[:, 1] - d[:, 1] * w[:, 0]) / det
     return g, eta
+
+
+def _seen_through(so: Surface, edge: np.ndarray, A: np.ndarray, B: np.ndarray, s: np.ndarray,
+                  g: np.ndarray) -> np.ndarray:
+    """For candidates behind the own surface (``g < 0``): True where the ray from the point
+    ``A + s (B - A)`` back to the opposite point ``x̌ = x + g n`` leaves the own body, i.e. crosses
+    another edge of the own surface. Such a segment is seen through a thin part of the own body
+    (a flap's tip, the far side of a wedge), not penetrated; a true penetration ends inside the
+    own body. Decides by geometry, not by the size of ``g``, so it holds on every mesh."""
+    t = B - A
+    n = np.column_stack([t[:, 1], -t[:, 0]]) / np.linalg.norm(t, axis=1)[:, None]
+    x = A + s[:, None] * t
+    # stop just short of x̌: for self contact the opposite edge belongs to the own surface
+    xb = x + (1.0 - 1e-9) * g[:, None] * n
+    own = shapely.STRtree(shapely.linestrings(np.stack([so.x[so.edges[:, 0]], so.x[so.edges[:, 1]]], axis=1)))
+    ray, hit = own.query(shapely.linestrings(np.stack([x, xb], axis=1)), predicate="intersects")
+    other = hit != edge[ray]  # the ray starts on its own edge
+    out = np.zeros(len(edge), dtype=bool)
+    out[ray[other]] = True
+    return out
 
 
 def find_pieces(surfaces: list[Surface], own: int, radius: float, self_contact: bool = False,
@@ -198,6 +219,9 @@ def _resolve_overlaps(surfaces, own, e, osf, f, s0, s1, d0, d1, radius, split) -
     g, _ = gap_along_normal(A, B, P, Q, mid[iv])
     ag = np.abs(g)
     keep = ag <= radius
+    behind = np.nonzero(keep & (g < 0.0))[0]
+    if len(behind):
+        keep[behind] = ~_seen_through(so, edge[behind], A[behind], B[behind], mid[iv][behind], g[behind])
     iv, c, ag = iv[keep], c[keep], ag[keep]
     if len(iv) == 0:
         return empty

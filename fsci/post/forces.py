@@ -52,8 +52,9 @@ def traction_loads(system, bodies: list[int], about=None) -> np.ndarray:
     return np.zeros(3)
 
 
-def interface_flow_rates(system, body: int | None = None) -> tuple[float, float]:
-    """(Φ^F, Φ^S): ∫_Γ^FS v·n with the fluid velocity and with the solid velocity (44)."""
+def interface_flux_points(system, body: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Gauss points of Γ^FS (of one body or all) with their contributions to (44):
+    ``(x (k, 2), n (k, 2), w v·n fluid (k,), w v·n solid (k,))``, n the solid's outward normal."""
     from fsci.fem.q1 import q1_eval
     from fsci.fem.quadrature import gauss_line
 
@@ -62,8 +63,7 @@ def interface_flow_rates(system, body: int | None = None) -> tuple[float, float]
     g = f.grid
     gx, gw = gauss_line(3)
     gp, gw = 0.5 * (gx + 1.0), 0.5 * gw
-    phi_f = 0.0
-    phi_s = 0.0
+    parts: list[tuple[np.ndarray, ...]] = []
     for b, s in enumerate(system.solids):
         if body is not None and b != body:
             continue
@@ -85,6 +85,14 @@ def interface_flow_rates(system, body: int | None = None) -> tuple[float, float]
         N, _ = q1_eval(2.0 * (pts - x0) / g.cell_size[cells] - 1.0)
         v = np.einsum("ka,kad->kd", N, f.V[g.cells[cells]]).reshape(xq.shape)
         vs = (1.0 - sq)[..., None] * vs_nodes[:, 0, None, :] + sq[..., None] * vs_nodes[:, 1, None, :]
-        phi_f += float(np.sum(wq * np.einsum("kgd,kd->kg", v, n)))
-        phi_s += float(np.sum(wq * np.einsum("kgd,kd->kg", vs, n)))
-    return phi_f, phi_s
+        nq = np.repeat(n, len(gp), axis=0)
+        parts.append((pts, nq, (wq * np.einsum("kgd,kd->kg", v, n)).ravel(), (wq * np.einsum("kgd,kd->kg", vs, n)).ravel()))
+    if not parts:
+        return np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0)
+    return tuple(np.concatenate([p[i] for p in parts]) for i in range(4))
+
+
+def interface_flow_rates(system, body: int | None = None) -> tuple[float, float]:
+    """(Φ^F, Φ^S): ∫_Γ^FS v·n with the fluid velocity and with the solid velocity (44)."""
+    _, _, phi_f, phi_s = interface_flux_points(system, body)
+    return float(np.sum(phi_f)), float(np.sum(phi_s))
