@@ -4,12 +4,14 @@ the history of a run (also of a run still in progress: history.csv is written ev
     fsci run pump --out results/pump                       # A = 1 on [0, 0.15], 1.5 after
     python benchmarks/pump_figures.py results/pump [--figures docs/figures]
     python benchmarks/pump_figures.py --geometry               # the reconstruction, drawn
+    python benchmarks/pump_figures.py results/pump --snapshots # fields at characteristic instants
     python benchmarks/pump_figures.py --help
 
 Flow rates in the design direction (-x, the paper's convention): Q_in = -(outward flux through
 x = 1.5), Q_out = outward flux through x = 0; transported volume V(t) = ∫ Q_out dt, and per
 load cycle (period 0.05) the volume leaving through Γ^out. A valve's opening is the distance of
-its flap tips: 2 × 0.0035 (tip points at rest) + u_y(upper tip) − u_y(lower tip).
+its flap tips' faces: 2 × 0.003 at rest + u_y(upper tip) − u_y(lower tip) (tip points 0.0005 inside
+the flaps).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 PERIOD = 0.05
-TIP_GAP = 2 * 0.0035  # distance of the two tip points at rest (fsci/cases/pump.py)
+TIP_GAP = 2 * 0.003  # distance of the two tip faces at rest (fsci/cases/pump.py FLAP_TIP)
 
 
 def load(run: Path) -> dict[str, np.ndarray]:
@@ -96,6 +98,30 @@ def report(run: Path, fig_dir: Path) -> None:
     fig.savefig(fig_dir / "pump_contact.png", dpi=120)
 
 
+def snapshots(run: Path, fig_dir: Path) -> None:
+    """Speed, pressure and interface tractions (FSI blue, contact red) at the outputs nearest to
+    the characteristic instants of the last complete cycle at A = 1: compression (largest
+    chamber pressure), the inflow valve shut (first step with two fluid pieces), suction
+    (lowest chamber pressure); and, if the run reached A = 1.5, the output nearest to the
+    largest flap-tip excursion after t = 0.15 (snap-through)."""
+    from fsci.post.figures import snapshots_at
+
+    h = load(run)
+    t = h["time"]
+    # the last complete cycle at A = 1 (t ≤ 0.15)
+    k = max(1, min(3, int(np.floor(t[-1] / PERIOD + 1e-9))))
+    c1 = (t > (k - 1) * PERIOD) & (t <= k * PERIOD)
+    wanted = [(f"compression (cycle {k})", t[c1][np.argmax(h["p_chamber"][c1])])]
+    if np.any(h["pieces"][c1] > 1):
+        wanted.append((f"inflow valve shut (cycle {k})", t[c1][np.argmax(h["pieces"][c1] > 1)]))
+    wanted.append((f"suction (cycle {k})", t[c1][np.argmin(h["p_chamber"][c1])]))
+    late = t > 0.15
+    if late.any():
+        tips = np.column_stack([h[f"tip_{v}_{b}"] for v in ("left", "right") for b in ("upper", "lower")])
+        wanted.append(("largest flap excursion, A = 1.5", t[late][np.argmax(np.abs(tips[late]).max(axis=1))]))
+    snapshots_at(run, wanted, fig_dir, "pump_snapshot", (0.15, 1.35, -0.07, 0.07), arrow_length=0.03)
+
+
 def geometry(fig_dir: Path) -> None:
     """The reconstructed geometry: solid meshes, fluid box, Γ^P, valves, with the chosen sizes."""
     import matplotlib
@@ -141,12 +167,15 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("run", type=Path, nargs="?", help="output folder of `fsci run pump`")
     ap.add_argument("--geometry", action="store_true", help="draw the reconstructed geometry")
+    ap.add_argument("--snapshots", action="store_true", help="field snapshots of the run at characteristic instants")
     ap.add_argument("--figures", type=Path, default=ROOT / "docs" / "figures")
     args = ap.parse_args(argv)
     if args.geometry:
         geometry(args.figures)
     if args.run is not None:
         report(args.run, args.figures)
+        if args.snapshots:
+            snapshots(args.run, args.figures)
     elif not args.geometry:
         ap.error("give a run folder or --geometry")
 

@@ -887,7 +887,9 @@ QUANTITY = Variants(
         "flow_rate": _q("∫ v·n over the physical part of a box side (paper eq. (44)); column `<name>`.",
                         Key("boundary", Str(SIDES), REQUIRED, "a side of the fluid box")),
         "mass_balance": _q("flow rates Φ through the box and Γ^FS and the errors of paper eq. (45); columns "
-                           "`<name>_phi_box`, `_phi_fluid`, `_phi_solid`, `_err1`, `_err2`; result `<name>_err1_max`."),
+                           "`<name>_phi_box`, `_phi_fluid`, `_phi_solid`, `_err1`, `_err2`, and `_err1_pieces`, the largest "
+                           "`_err1` of a single connected fluid piece (flow between pieces the bodies separate); result "
+                           "`<name>_err1_max`."),
         "oscillation": _q("mean, amplitude, period and frequency of another quantity over its last period; results "
                           "`<name>_mean`, `_amplitude`, `_period`, `_frequency`.",
                           Key("of", Str(), REQUIRED, "name of an earlier quantity")),
@@ -916,6 +918,11 @@ QUANTITY = Variants(
         "interface_summary": _q("per-step interface data of a body (lengths in contact and wetted, forces); "
                                 "columns `<name>_*`.", BODY_NAME),
         "fluid_pieces": _q("number of connected fluid regions; column `<name>`."),
+        "body_centroid": _q("centre of mass of a body in its current configuration (mean of the current positions "
+                            "over the reference area) and its current area; columns `<name>_x`, `_y`, `_area`.",
+                            BODY_NAME),
+        "elastic_energy": _q("strain energy ∫ ψ dA0 stored in a body (or bodies, summed) by its hyperelastic law; "
+                             "column `<name>`.", _force_bodies()),
         "event": _q("first time the history column `of` falls to zero, rises from zero, or falls below half of its "
                     "largest value so far; results `<name>_time` and `<name>` (= `value` at that time).",
                     Key("of", Str(), REQUIRED, "a history column of an earlier quantity (or case_I..case_IV)"),
@@ -942,9 +949,11 @@ SUFFIXES = {
     "mass_balance": ("phi_box", "phi_fluid", "phi_solid", "err1", "err2", "err1_max"),
     "oscillation": ("mean", "amplitude", "period", "frequency"),
     "vortex_center": ("x", "y", "psi"),
+    "body_centroid": ("x", "y", "area"),
     "event": ("time", ""),
 }
-NO_OWN_COLUMN = ("mass_balance", "oscillation", "vortex_center", "centerline_profiles", "contact_profile", "hertz_exact")
+NO_OWN_COLUMN = ("mass_balance", "oscillation", "vortex_center", "centerline_profiles", "contact_profile", "hertz_exact",
+                 "body_centroid")
 
 
 def result_names(q: Mapping[str, Any]) -> tuple[set[str], tuple[str, ...]]:

@@ -209,24 +209,45 @@ def test_stamp_contacts_rests_and_lifts_off_at_the_calibrated_times(tmp_path):
     assert r["stamp_length_contact"][-1] == 0 and r["uy_X"][-1] > r["uy_X"][rest].max()
 
 
-def test_pump_first_compression_opens_the_outflow_valve_and_closes_the_inflow_valve(tmp_path):
-    """The reconstructed pump (docs/cases/pump.md) on the paper's 240 × 54 grid (r = 1) over the
-    first 40 steps (t ≤ 0.008) of its first compression: fluid leaves through the outflow side
-    in the design direction, the outflow (left) valve opens and the inflow (right) valve closes
-    (tip distances measured
-    0.0083 and 0.0062 from 0.0070), the chamber pressure exceeds the inflow side's (by 3.5,
-    asserted > 1), and the mass balance Φ¹ holds at solver tolerance (measured 4e-13 of the
-    flux, asserted 1e-9). On this grid the run stops later, at the first valve closure
-    (t ≈ 0.021); the default (r = 4) gets past it."""
-    out = tmp_path / "pump"
-    assert main(["run", "pump", "--set", "r=1", "--set", "time.segments=[{until=0.008, dt=2e-4}]",
-                 "--set", "output.every=0",
+@pytest.fixture(scope="module")
+def pump_compression(tmp_path_factory):
+    """The reconstructed pump (docs/cases/pump.md) on the paper's 240 × 54 grid through its first
+    compression until the inflow valve has shut (t ≤ 0.026, steps of 4e-4, twice the paper's)."""
+    out = tmp_path_factory.mktemp("pump")
+    assert main(["run", "pump", "--set", "time.segments=[{until=0.026, dt=4e-4}]", "--set", "output.every=0",
                  "--set", "output.figures=false", "--out", str(out)]) == 0
-    r = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
-    opening = {v: 0.007 + r[f"tip_{v}_upper"] - r[f"tip_{v}_lower"] for v in ("left", "right")}
-    print({v: g[-1] for v, g in opening.items()}, r["p_right_valve_chamber"][-1] - r["p_right_valve_in"][-1],
-          (r["mass_err1"] / np.abs(r["mass_phi_solid"]).max()).max())
-    assert r["flow_out"][-1] > 0.0  # outward through x = 0: the design direction −x
-    assert opening["left"][-1] > 0.0072 and opening["right"][-1] < 0.0068
-    assert r["p_right_valve_chamber"][-1] > r["p_right_valve_in"][-1] + 1.0
-    assert np.all(r["mass_err1"] < 1e-9 * np.abs(r["mass_phi_solid"]).max())
+    return np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+
+
+def test_pump_compression_shuts_the_inflow_valve_by_contact(pump_compression):
+    """First compression: fluid leaves through the outflow side in the design direction (−x), the
+    outflow (left) valve opens (tip faces 0.006 apart at rest, measured 0.0224), the inflow
+    (right) valve shuts by contact (cases II > 0 and the fluid split in two pieces from
+    t ≈ 0.022) and carries a pressure jump (measured 12.5 at t = 0.026, asserted > 5); Newton
+    converges in every step (no step cut) and the mass balance Φ¹ holds at solver tolerance
+    (measured 8e-9 of the flux, asserted 1e-7)."""
+    r = pump_compression
+    opening = {v: 0.006 + r[f"tip_{v}_upper"] - r[f"tip_{v}_lower"] for v in ("left", "right")}
+    shut = r["pieces"] > 1
+    phi = np.abs(r["mass_phi_solid"]).max()
+    print({v: g[-1] for v, g in opening.items()}, r["time"][np.argmax(shut)],
+          r["p_right_valve_chamber"][-1] - r["p_right_valve_in"][-1], (r["mass_err1"] / phi).max())
+    assert np.all(r["dt"] == pytest.approx(4e-4))
+    assert r["flow_out"][-1] > 0.0 and np.sum(r["flow_out"] * r["dt"]) > 0.0  # outward through x = 0: −x
+    assert opening["left"][-1] > 0.015
+    assert shut.any() and np.all(shut[np.argmax(shut):]) and np.all(r["case_II"][shut] > 0)
+    assert r["p_right_valve_chamber"][-1] > r["p_right_valve_in"][-1] + 5.0
+    assert np.all(r["mass_err1"] < 1e-7 * phi)
+
+
+@pytest.mark.xfail(strict=True, reason="one dof set per background node: cells that hold fluid of both sides "
+                   "of the shut valve couple the two pieces (docs/cases/pump.md, 'A shut valve leaks')")
+def test_pump_shut_valve_holds_the_mass_of_each_fluid_piece(pump_compression):
+    """While the inflow valve is shut, each fluid piece on its own satisfies the mass balance
+    (46): the flux through Γ^in equals the motion of the walls of the inlet piece. Measured: the
+    imbalance of a single piece is 0.34 of the largest interface flux (the leak), while the whole
+    fluid balances to 8e-9."""
+    r = pump_compression
+    shut = r["pieces"] > 1
+    assert shut.any()
+    assert np.all(r["mass_err1_pieces"][shut] < 1e-6 * np.abs(r["mass_phi_solid"]).max())

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 from typing import Any, Callable, NamedTuple
 
-from fsci.cases import cavity, contact_cases, dfg, fsci_checks, moving_cylinder, pump, sinking_disk, stamp, turek_hron
+from fsci.cases import (cavity, contact_cases, dfg, fsci_checks, moving_cylinder, pump, sinking_disk, squeezed, stamp,
+                        turek_hron)
 
 
 class BuiltinCase(NamedTuple):
@@ -46,8 +47,11 @@ CASES: dict[str, BuiltinCase] = {
     "moving-cylinder": BuiltinCase("Cylinder with prescribed oscillation and pulsation, mass balance (45)-(46)",
                                    moving_cylinder.moving_cylinder, "~20 s"),
     "pump": BuiltinCase("Paper Sec. 4.2: elastic valve pump, chamber squeezed periodically, two two-flap valves "
-                        "(reconstructed; --set A2=1 for A = 1 throughout; valve zones refined r = 4 times, "
-                        "--set r=1 for the paper's grid)", pump.pump, "~3 h"),
+                        "(reconstructed; --set A2=1 for A = 1 throughout; the paper's grid, --set r=4 refines "
+                        "the valve zones 4 times)", pump.pump, "~3 h"),
+    "squeezed": BuiltinCase("Paper Sec. 4.3: elastic body carried by channel flow and squeezed through an elastic "
+                            "structure with three barriers (reconstructed; --set n=20 --set hb=0.03 for a coarse grid)",
+                            squeezed.squeezed, "~7 h (est.)"),
     "lift-off": BuiltinCase("Elastic block on a slab in fluid lifts off when the ambient pressure reaches its load "
                             "(FSCI, extension)", fsci_checks.lift_off, "~1 min"),
     "contact-sweep": BuiltinCase("Quasi-static push through fluid onto a slab and back: continuity of the FSI -> "

@@ -107,16 +107,15 @@ def pump() -> dict[str, Any]:
         "kind": "fsci",
         "description": "Elastic valve pump: a chamber between two two-flap valves squeezed periodically "
                        "(paper Sec. 4.2, reconstructed)",
-        "parameters": {"A2": 1.5, "r": 4},
+        "parameters": {"A2": 1.5, "r": 1},
         "bodies": [structure("upper", 1, T_WALL, "=0.02", "=0.0065"), structure("lower", -1, T_WALL, "=0.02", "=0.0065")],
         "contact": {"gamma0": 1.0, "weighting": "harmonic"},
         "fluid": {
             "rho": 1e-3,
             "mu": 1e-3,
             "body_force": [0.0, -1000.0],
-            # the paper's 240 × 54 grid (h = 0.00625 × 0.0065) for r = 1; the two valve zones and the
-            # channel band r times finer (docs/cases/pump.md: on the paper's grid Newton fails where
-            # the inflow valve first closes)
+            # the paper's 240 × 54 grid (h = 0.00625 × 0.0065) for r = 1 (default); r > 1 makes the
+            # two valve zones and the channel band r times finer
             "grid": {"x": {"breaks": [0.0, 0.175, 0.3625, 1.1375, 1.325, 1.5], "cells": [28, "=30*r", 124, "=30*r", 28]},
                      "y": {"breaks": [-0.1755, -0.0325, 0.0325, 0.1755], "cells": [22, "=10*r", 22]}},
             "dirichlet": [{"boundary": "left", "value": ["free", 0.0]}, {"boundary": "right", "value": ["free", 0.0]}],
