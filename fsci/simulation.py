@@ -74,7 +74,8 @@ class Simulation:
 
     @classmethod
     def resume(cls, out_dir: Path, overrides: list[str] | None = None, monitor=None) -> "Simulation":
-        """Continue the run whose checkpoint and case.toml are in ``out_dir``."""
+        """Continue the run whose checkpoint and case.toml are in ``out_dir``; ``overrides``
+        (``--set``) change the case from here on and are written into its case.toml."""
         from fsci.config import apply_override, load_toml, problem_from_dict
         from fsci.io.checkpoint import read_checkpoint, stored_meshes
         from fsci.io.vtk import VTKWriter
@@ -99,6 +100,13 @@ class Simulation:
             sim.writer = VTKWriter(out_dir)
             sim.writer.count = meta["writer"]["count"]
             sim.writer.entries = [tuple(e) for e in meta["writer"]["entries"]]
+        if overrides:  # the folder describes the case that runs on: a later resume continues it
+            import tomli_w
+
+            from fsci.io.atomic import write_text
+
+            write_text(out_dir / "case.toml", tomli_w.dumps(case))
+            sim.checkpoint()  # the same state, recorded with the new case.toml's digest
         return sim
 
     # ----------------------------------------------------------------- stepping

@@ -33,7 +33,8 @@ def _sink_args(extra=()):
 
 
 def test_restart_is_bitwise_identical(tmp_path, monkeypatch):
-    """Run 6 steps; run 3, resume for 3: every state array and every history value equal. The
+    """Run 6 steps; run 3, resume for 2 (``--set time.t_end``, kept in case.toml: a second resume
+    without it has nothing to do), then for 1: every state array and every history value equal. The
     resumed run continues on the mesh stored in the checkpoint, even where the mesher would now
     give another one (gmsh did not always reproduce an outline mesh; here it is made to)."""
     import fsci.config as config_module
@@ -44,6 +45,9 @@ def test_restart_is_bitwise_identical(tmp_path, monkeypatch):
     assert main(["run", "sinking-disk", *_sink_args(["time.t_end=0.06"]), "--out", str(part)]) == 0
     real_mesher = config_module.mesh_outline
     monkeypatch.setattr(config_module, "mesh_outline", lambda loops, h, **kw: real_mesher(loops, 1.5 * h, **kw))
+    assert main(["resume", str(part), "--set", "time.t_end=0.1"]) == 0
+    assert main(["resume", str(part)]) == 0  # the override is kept: nothing left to do
+    assert read_checkpoint(part)[1]["step"] == 3 + 2
     assert main(["resume", str(part), "--set", "time.t_end=0.12"]) == 0
     s_full, m_full = read_checkpoint(full)
     s_part, m_part = read_checkpoint(part)
