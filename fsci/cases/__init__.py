@@ -50,8 +50,8 @@ CASES: dict[str, BuiltinCase] = {
                         "(reconstructed; --set A2=1 for A = 1 throughout; the paper's grid, --set r=4 refines "
                         "the valve zones 4 times)", pump.pump, "~3 h"),
     "squeezed": BuiltinCase("Paper Sec. 4.3: elastic body carried by channel flow and squeezed through an elastic "
-                            "structure with three barriers (reconstructed; --set n=20 --set hb=0.03 for a coarse grid)",
-                            squeezed.squeezed, "~7 h (est.)"),
+                            "structure with three barriers (reconstructed; --set n=20 --set hb=0.03 for a coarse grid; "
+                            "wall time estimated from the first steps)", squeezed.squeezed, "~7 h"),
     "lift-off": BuiltinCase("Elastic block on a slab in fluid lifts off when the ambient pressure reaches its load "
                             "(FSCI, extension)", fsci_checks.lift_off, "~1 min"),
     "contact-sweep": BuiltinCase("Quasi-static push through fluid onto a slab and back: continuity of the FSI -> "
