@@ -54,11 +54,14 @@ def report(run: Path, fig_dir: Path) -> None:
     vol_in = np.cumsum(q_in * dt)
     print(f"run {run}: t = {t[-1]:.4g}, {len(t)} steps, Newton per step {h['newton_iterations'].mean():.2f}, "
           f"max Φ¹_err {h['mass_err1'].max():.2g}, fluid pieces {int(h['pieces'].min())}..{int(h['pieces'].max())}")
+    import tomllib
+
+    a2 = float(tomllib.loads((run / "case.toml").read_text(encoding="utf-8"))["parameters"]["A2"])
     print("| cycle | A | volume out (design direction) | volume in | complete |")
     print("|---|---|---|---|---|")
     cin = dict((k, v) for k, v, _ in per_cycle(t, dt, q_in))
     for k, v, done in per_cycle(t, dt, q_out):
-        print(f"| {k} | {1.0 if k <= 3 else 1.5} | {v:.4g} | {cin[k]:.4g} | {'yes' if done else 'no'} |")
+        print(f"| {k} | {1.0 if k <= 3 else a2:g} | {v:.4g} | {cin[k]:.4g} | {'yes' if done else 'no'} |")
     opening = {v: TIP_GAP + h[f"tip_{v}_upper"] - h[f"tip_{v}_lower"] for v in ("left", "right")}
     for v, g in opening.items():
         closed = t[g < 0.2 * TIP_GAP]
