@@ -125,6 +125,48 @@ def snapshots(run: Path, fig_dir: Path) -> None:
     snapshots_at(run, wanted, fig_dir, "pump_snapshot", (0.15, 1.35, -0.07, 0.07), arrow_length=0.03)
 
 
+def valve_gap(run: Path, fig_dir: Path) -> None:
+    """Gap g_n along the upper flap of the inflow (right) valve at the field outputs around its
+    first shutting in the last complete A = 1 cycle (from the interface VTU: every Gauss point
+    with its gap and case), contact points marked."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import meshio
+
+    from fsci.post.figures import output_times
+
+    h = load(run)
+    t = h["time"]
+    k = max(1, min(3, int(np.floor(t[-1] / PERIOD + 1e-9))))
+    c = (t > (k - 1) * PERIOD) & (t <= k * PERIOD) & (h["pieces"] > 1)
+    if not c.any():
+        return
+    t0, t1 = t[c][0], t[c][-1]
+    outs = [(to, i) for to, i in output_times(run) if t0 - 0.006 <= to <= t1 + 0.002]
+    fig, ax = plt.subplots(figsize=(8, 4))
+    colours = plt.cm.viridis(np.linspace(0, 1, max(len(outs), 1)))
+    for (to, i), col in zip(outs, colours):
+        m = meshio.read(run / "vtu" / f"interface_{i:05d}.vtu")
+        x, y = m.points[:, 0], m.points[:, 1]
+        sel = (m.point_data["body"] == 0) & (x > 1.17) & (x < 1.245) & (np.abs(y) < 0.012) & (m.point_data["gap"] > -0.5)  # -1: no opposite surface
+        if not sel.any():
+            continue
+        o = np.argsort(x[sel])
+        ax.plot(x[sel][o], m.point_data["gap"][sel][o], "-", color=col, lw=1, label=f"t = {to:.4g}")
+        hit = sel & (m.point_data["case"] > 1)
+        ax.plot(x[hit], m.point_data["gap"][hit], "o", color=col, ms=3)
+    ax.set_xlabel("x along the upper flap of the inflow valve")
+    ax.set_ylabel("gap g_n to the lower flap")
+    ax.set_yscale("symlog", linthresh=1e-5)
+    ax.set_title(f"inflow valve shutting in cycle {k} (dots: contact, cases II-IV)", fontsize=9)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(fig_dir / "pump_valve_gap.png", dpi=120)
+    print(f"pump_valve_gap.png: {len(outs)} outputs in [{t0 - 0.006:.4g}, {t1 + 0.002:.4g}]")
+
+
 def geometry(fig_dir: Path) -> None:
     """The reconstructed geometry: solid meshes, fluid box, Γ^P, valves, with the chosen sizes."""
     import matplotlib
@@ -179,6 +221,7 @@ def main(argv: list[str] | None = None) -> None:
         report(args.run, args.figures)
         if args.snapshots:
             snapshots(args.run, args.figures)
+            valve_gap(args.run, args.figures)
     elif not args.geometry:
         ap.error("give a run folder or --geometry")
 

@@ -34,10 +34,8 @@ from fsci.coupling import traction as tk
 from fsci.coupling.points import BoundaryOf, CouplingPieces, build_pieces
 from fsci.errors import InputError
 from fsci.expressions import Expression
-from fsci.fem.q1 import q1_eval
 from fsci.fem.quadrature import gauss_line, gauss_quad
 from fsci.fields import StepContext, time_weighted_vector
-from fsci.physics.materials import LAW_NAMES
 
 GAP_LAW = "gap_law"
 CASE_NAMES = ("I", "II", "III", "IV")
@@ -290,7 +288,6 @@ class CouplingTerm:
         ``[U of each body, (v_x, v_y, p) of each background node, 0]`` (absent: the final 0)."""
         pc = self.pieces(system)
         K = len(pc)
-        G = len(self.gp)
         f = system.fluid
         zero = sum(2 * s.n for s in system.solids) + (3 * f.grid.n_nodes if f is not None else 0)
         zidx = np.full((K, tk.N_LOCAL), zero, dtype=np.int64)
