@@ -48,7 +48,7 @@ CASES: dict[str, BuiltinCase] = {
                                    moving_cylinder.moving_cylinder, "~20 s"),
     "pump": BuiltinCase("Paper Sec. 4.2: elastic valve pump, chamber squeezed periodically, two two-flap valves "
                         "(reconstructed; --set A2=1 for A = 1 throughout; the paper's grid, --set r=4 refines "
-                        "the valve zones 4 times)", pump.pump, "~1.5 h"),
+                        "the valve zones 4 times)", pump.pump, "~90 min"),
     "squeezed": BuiltinCase("Paper Sec. 4.3: elastic body carried by channel flow and squeezed through an elastic "
                             "structure with three barriers (reconstructed; --set n=20 --set hb=0.03 for a coarse grid; "
                             "wall time estimated from the first steps)", squeezed.squeezed, "~7 h"),

@@ -41,7 +41,7 @@ split and the transition point's parameter are frozen with the cut (docs/archite
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from fsci.fem.q1 import q1_physical_gradients, q1_shape
 from fsci.fem.sparse import add_local
@@ -407,7 +407,6 @@ _SLOT_OFFSET = np.array([0, 2, 4, 6, 8, 10, 12, 14, 16, 19, 22, 25, 28, 31, 34, 
 _SLOT_NDOF = np.array([2, 2, 2, 2, 2, 2, 2, 2, 3, 3, 3, 3, 3, 3, 3, 3, 2, 2])
 
 
-@njit(cache=True)
 def assemble_pieces(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_all, vq_all, kap_all, Xe_all,
                     We_all, vqe_all, Vo_all, bq_all, fprm, shape, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw,
                     conn, pos, data, rhs, row_base, row_len, start, ndof, want_matrix, out_all):
@@ -416,32 +415,54 @@ def assemble_pieces(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W
     Γ^FS (:func:`add_bulk_shape_derivative`).
 
     ``conn[k]`` holds the global nodes of the ``N_SLOTS`` node slots (-1: slot absent); local
-    rows and columns are compacted to the present slots before :func:`add_local`."""
-    r = np.empty(N_LOCAL)
-    rc = np.empty(N_LOCAL, dtype=np.complex128)
-    zc = np.empty(N_LOCAL, dtype=np.complex128)
-    Kf = np.zeros((N_LOCAL, N_LOCAL))
-    dummy = np.empty((len(gp), N_OUT))
-    idx = np.empty(N_LOCAL, dtype=np.int64)
-    for k in range(len(ip_all)):
+    rows and columns are compacted to the present slots before :func:`add_local`. The pieces
+    are evaluated in parallel (numba threads, :func:`_piece_locals`) and added to the global
+    arrays one after the other in piece order (:func:`_add_pieces`), so the sums do not depend
+    on the number of threads."""
+    n = len(ip_all)
+    R_all = np.zeros((n, N_LOCAL))
+    K_all = np.zeros((n, N_LOCAL, N_LOCAL) if want_matrix else (0, N_LOCAL, N_LOCAL))
+    used = np.zeros(n, dtype=np.bool_)
+    _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_all, vq_all, kap_all, Xe_all, We_all,
+                  vqe_all, Vo_all, bq_all, fprm, shape, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw, conn,
+                  want_matrix, out_all, R_all, K_all, used)
+    _add_pieces(conn, pos, R_all, K_all, used, data, rhs, row_base, row_len, start, ndof, want_matrix)
+
+
+@njit(cache=True)
+def _live_columns(conn_k, idx):
+    """Local indices of the unknowns of the present slots of one piece into ``idx``; their number."""
+    m = 0
+    for slot in range(N_SLOTS):
+        if conn_k[slot] >= 0:
+            for c in range(_SLOT_NDOF[slot]):
+                idx[m] = _SLOT_OFFSET[slot] + c
+                m += 1
+    return m
+
+
+@njit(cache=True, parallel=True)
+def _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_all, vq_all, kap_all, Xe_all,
+                  We_all, vqe_all, Vo_all, bq_all, fprm, shape, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw,
+                  conn, want_matrix, out_all, R_all, K_all, used):
+    """Residual ``R_all[k]`` and full local Jacobian ``K_all[k]`` (N_LOCAL × N_LOCAL, columns of
+    absent slots zero) of every piece; ``used[k]`` False for a piece that contributes nothing."""
+    for k in prange(len(ip_all)):
         z = z_all[k]
-        used = piece_residual(z, r, out_all[k], ip_all[k], fp_all[k], Xo_all[k], prmo_all[k], Xm_all[k],
-                              prmm_all[k], W_all[k], vq_all[k], kap_all[k], Xe_all[k], We_all[k], vqe_all[k], mu,
-                              sym, sadj, variant33, w_p, w_t, w_c, gp, gw)
-        if not used:
+        r = np.empty(N_LOCAL)
+        used[k] = piece_residual(z, r, out_all[k], ip_all[k], fp_all[k], Xo_all[k], prmo_all[k], Xm_all[k],
+                                 prmm_all[k], W_all[k], vq_all[k], kap_all[k], Xe_all[k], We_all[k], vqe_all[k], mu,
+                                 sym, sadj, variant33, w_p, w_t, w_c, gp, gw)
+        if not used[k]:
             continue
-        m = 0
-        for slot in range(N_SLOTS):
-            if conn[k, slot] >= 0:
-                for c in range(_SLOT_NDOF[slot]):
-                    idx[m] = _SLOT_OFFSET[slot] + c
-                    m += 1
-        Re = np.empty(m)
-        Ke = np.zeros((m, m))
-        for i in range(m):
-            Re[i] = r[idx[i]]
+        R_all[k, :] = r
         if want_matrix:
-            Kf[:, :] = 0.0
+            idx = np.empty(N_LOCAL, dtype=np.int64)
+            m = _live_columns(conn[k], idx)
+            rc = np.empty(N_LOCAL, dtype=np.complex128)
+            zc = np.empty(N_LOCAL, dtype=np.complex128)
+            dummy = np.empty((len(gp), N_OUT))
+            Kf = K_all[k]
             for jj in range(m):
                 j = idx[jj]
                 for l in range(N_LOCAL):
@@ -454,7 +475,22 @@ def assemble_pieces(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W
                     Kf[l, j] = rc[l].imag / CS_STEP
             if shape:
                 add_bulk_shape_derivative(Kf, z, ip_all[k], fp_all[k], Xo_all[k], Vo_all[k], bq_all[k], fprm, gp, gw)
+
+
+@njit(cache=True)
+def _add_pieces(conn, pos, R_all, K_all, used, data, rhs, row_base, row_len, start, ndof, want_matrix):
+    """Add the local residuals and Jacobians, compacted to the present slots, piece by piece."""
+    idx = np.empty(N_LOCAL, dtype=np.int64)
+    for k in range(len(used)):
+        if not used[k]:
+            continue
+        m = _live_columns(conn[k], idx)
+        Re = np.empty(m)
+        Ke = np.zeros((m, m))
+        for i in range(m):
+            Re[i] = R_all[k, idx[i]]
+        if want_matrix:
             for ii in range(m):
                 for jj in range(m):
-                    Ke[ii, jj] = Kf[idx[ii], idx[jj]]
+                    Ke[ii, jj] = K_all[k, idx[ii], idx[jj]]
         add_local(data, rhs, row_base, row_len, start, ndof, conn[k], pos[k], Ke, Re, want_matrix)
