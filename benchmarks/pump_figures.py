@@ -173,19 +173,15 @@ def geometry(fig_dir: Path) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.collections import PolyCollection
 
     from fsci.cases import get_case, pump
     from fsci.config import problem_from_dict
+    from fsci.post.figures import draw_case
 
     prob = problem_from_dict(get_case("pump"))
     fig, axes = plt.subplots(2, 1, figsize=(12, 8.5), gridspec_kw={"height_ratios": [2, 1.2]})
     for ax in axes:
-        for b in prob.bodies:
-            m = b.mesh
-            ax.add_collection(PolyCollection(m.nodes[m.cells], facecolors="0.85", edgecolors="0.4", linewidths=0.15))
-        ax.add_patch(plt.Rectangle((0.0, -0.1755), 1.5, 0.351, fill=False, ec="tab:blue", lw=1.2))
-        ax.set_aspect("equal")
+        draw_case(ax, prob)
     ax = axes[0]
     ax.set_xlim(-0.08, 1.58)
     ax.set_ylim(-0.45, 0.45)

@@ -159,20 +159,15 @@ def geometry(fig_dir: Path) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.collections import PolyCollection
 
     from fsci.cases import get_case, squeezed as sq
     from fsci.config import problem_from_dict
+    from fsci.post.figures import draw_case
 
     prob = problem_from_dict(get_case("squeezed"))
     fig, axes = plt.subplots(1, 2, figsize=(12, 8.5), gridspec_kw={"width_ratios": [1, 1.3]})
     for ax in axes:
-        for b in prob.bodies:
-            m = b.mesh
-            ax.add_collection(PolyCollection(m.nodes[m.cells], facecolors="0.85" if b.name != "body" else "#f5d9a8",
-                                             edgecolors="0.4", linewidths=0.12))
-        ax.add_patch(plt.Rectangle((-1.0, 0.0), 2.0, 5.0, fill=False, ec="tab:blue", lw=1.2))
-        ax.set_aspect("equal")
+        draw_case(ax, prob, {"body": "#f5d9a8"}, linewidth=0.12)
     ax = axes[0]
     ax.set_xlim(-1.45, 1.45)
     ax.set_ylim(-0.3, 5.45)

@@ -946,7 +946,7 @@ FIXED_COLUMNS = {
     "contact_profile": ("half_width", "peak_pressure", "penetration", "contact_force_x", "contact_force_y"),
 }
 SUFFIXES = {
-    "mass_balance": ("phi_box", "phi_fluid", "phi_solid", "err1", "err2", "err1_max"),
+    "mass_balance": ("phi_box", "phi_fluid", "phi_solid", "err1", "err2", "err1_pieces", "err1_max"),
     "oscillation": ("mean", "amplitude", "period", "frequency"),
     "vortex_center": ("x", "y", "psi"),
     "body_centroid": ("x", "y", "area"),

@@ -83,18 +83,19 @@ def stress_tangent(law, prm, C, S, D, want_tangent):
             D[2, 1] = 0.0
 
 
-def strain_energy(law: int, prm: np.ndarray, C: np.ndarray) -> float:
-    """Strain energy density (reference volume) for a 2×2 ``C``; used by tests."""
-    detC = C[0, 0] * C[1, 1] - C[0, 1] * C[1, 0]
+def strain_energy(law: int, prm: np.ndarray, C: np.ndarray) -> np.ndarray:
+    """Strain energy density (reference volume) for in-plane ``C`` of shape ``(..., 2, 2)``
+    (one 2×2 tensor or many): the ``psi`` of the module docstring."""
+    detC = C[..., 0, 0] * C[..., 1, 1] - C[..., 0, 1] * C[..., 1, 0]
     if law == NEO_HOOKE:
         c, beta = prm
-        trC = C[0, 0] + C[1, 1] + 1.0
+        trC = C[..., 0, 0] + C[..., 1, 1] + 1.0
         if beta == 0.0:
             return c * (trC - 3.0) - c * np.log(detC)
         return c * (trC - 3.0) + c / beta * (detC ** (-beta) - 1.0)
     lam, mu = prm
     E = 0.5 * (C - np.eye(2))
-    return 0.5 * lam * np.trace(E) ** 2 + mu * np.sum(E * E)
+    return 0.5 * lam * (E[..., 0, 0] + E[..., 1, 1]) ** 2 + mu * np.sum(E * E, axis=(-1, -2))
 
 
 @njit(cache=True)

@@ -63,6 +63,20 @@ def _draw_solids(ax, system, linewidth: float) -> None:
                                          linewidths=linewidth))
 
 
+def draw_case(ax, problem, colours: dict[str, str] | None = None, linewidth: float = 0.15) -> None:
+    """A case as set up: every body's mesh in its reference configuration (grey, or
+    ``colours[name]``) and the fluid box, equal axes (the geometry drawings of the examples)."""
+    for b in problem.bodies:
+        m = b.mesh
+        ax.add_collection(PolyCollection(m.nodes[m.cells], facecolors=(colours or {}).get(b.name, "0.85"),
+                                         edgecolors="0.4", linewidths=linewidth))
+    if problem.fluid is not None:
+        g = problem.fluid.grid
+        ax.add_patch(plt.Rectangle((g.xs[0], g.ys[0]), g.xs[-1] - g.xs[0], g.ys[-1] - g.ys[0], fill=False,
+                                   ec="tab:blue", lw=1.2))
+    ax.set_aspect("equal")
+
+
 def _save(fig, path: Path) -> Path:
     fig.tight_layout()
     fig.savefig(path, dpi=130)

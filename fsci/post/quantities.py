@@ -28,7 +28,8 @@ Kinds (``[[quantities]]`` in a case file):
                         area ``<name>_area`` (∫ det F dA0). Both exact for Q1 with the 2×2
                         Gauss rule.
 ``elastic_energy``      ``body`` (a name or a list of names): stored strain energy ∫ ψ(C) dA0 of
-                        the body's hyperelastic law (paper (43) for Neo-Hooke), 2×2 Gauss points
+                        the body's hyperelastic law (``physics.materials.strain_energy``, paper
+                        (43) for Neo-Hooke), 2×2 Gauss points
                         per cell as in the stiffness (per unit thickness, plane strain).
 """
 
@@ -402,31 +403,12 @@ def body_centroid(solid) -> tuple[float, float, float]:
     return float(c[0]), float(c[1]), float(np.sum(wdet * detF))
 
 
-def strain_energy_density(law: int, prm: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """Strain energy per reference area for deformation gradients ``F (..., 2, 2)`` in plane
-    strain (C33 = 1), the laws of :mod:`fsci.physics.materials`: Neo-Hooke (43)
-    ``ψ = c (tr C − 3) + (c/β)(J^(−2β) − 1)`` (β = 0: ``c (tr C − 3) − 2c ln J``), St.
-    Venant-Kirchhoff ``ψ = λ/2 (tr E)² + μ E:E``."""
-    from fsci.physics.materials import NEO_HOOKE
-
-    C = np.swapaxes(F, -1, -2) @ F
-    detC = C[..., 0, 0] * C[..., 1, 1] - C[..., 0, 1] * C[..., 1, 0]
-    if law == NEO_HOOKE:
-        c, beta = prm
-        trC = C[..., 0, 0] + C[..., 1, 1] + 1.0
-        if beta == 0.0:
-            return c * (trC - 3.0) - c * np.log(detC)
-        return c * (trC - 3.0) + c / beta * (detC ** (-beta) - 1.0)
-    lam, mu = prm
-    E = 0.5 * (C - np.eye(2))
-    trE = E[..., 0, 0] + E[..., 1, 1]
-    return 0.5 * lam * trE ** 2 + mu * np.sum(E * E, axis=(-1, -2))
-
-
 def elastic_energy(solid) -> float:
     """Strain energy ∫ ψ(C) dA0 stored in a body (2×2 Gauss points per cell, as its stiffness)."""
+    from fsci.physics.materials import strain_energy
+
     _, F, wdet = _gauss_deformation(solid)
-    return float(np.sum(wdet * strain_energy_density(solid.law, solid.prm, F)))
+    return float(np.sum(wdet * strain_energy(solid.law, solid.prm, np.swapaxes(F, -1, -2) @ F)))
 
 
 def mass_balance(system, prefix: str) -> dict[str, float]:
