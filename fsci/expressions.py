@@ -25,7 +25,7 @@ from fsci.errors import InputError
 FUNCTIONS = {
     "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log, "sqrt": np.sqrt,
     "abs": np.abs, "tanh": np.tanh, "sinh": np.sinh, "cosh": np.cosh, "arctan2": np.arctan2,
-    "minimum": np.minimum, "maximum": np.maximum,
+    "minimum": np.minimum, "maximum": np.maximum, "floor": np.floor,
 }
 CONSTANTS = {"pi": math.pi, "e": math.e}
 _BINOPS = (ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow)

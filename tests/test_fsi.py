@@ -281,3 +281,25 @@ def test_newton_backtracks_from_an_iterate_it_cannot_evaluate():
     assert sys_.evaluated[1] == pytest.approx(0.5 + 0.5 * 3.75)
     rep = solve_nonlinear(_Square(3.5), ctx, SolverSettings(), _Dense())
     assert not rep.converged and "iterate 1 cannot be evaluated" in rep.reason
+
+
+@pytest.mark.parametrize("m, r, shift", [(6, 1, 0.0), (12, 1, 0.37), (12, 4, 0.0), (13, 8, 0.63)])
+def test_fsi1_grid_refines_the_bar_surfaces_and_tip(m, r, shift):
+    """The FSI1 background grid (docs/validation.md, "The cause, isolated"): the band of cells
+    h = 0.02/m starts at 0.14 + shift·h; the rows through the bar's top and bottom surfaces and
+    the columns through its tip are h/r (and every band cell is h for r = 1)."""
+    c = get_case("turek-hron-fsi1")
+    for o in (f"m={m}", f"r={r}", f"shift={shift}"):
+        apply_override(c, o)
+    g = problem_from_dict(c).fluid.grid
+    h = 0.02 / m
+    assert np.min(np.abs(g.xs - (0.14 + shift * h))) < 1e-12 and np.min(np.abs(g.ys - (0.14 + shift * h))) < 1e-12
+    for axis, lines in ((g.xs, [0.6]), (g.ys, [0.19, 0.21])):
+        band = (axis >= 0.14 + shift * h - 1e-12) & (axis <= 0.26 + shift * h + 1e-12) if axis is g.ys else \
+            (axis >= 0.14 + shift * h - 1e-12) & (axis <= 0.66 + shift * h + 1e-12)
+        sizes = np.diff(axis[band])
+        assert set(np.round(sizes / h * r).astype(int)) <= ({r} if r == 1 else {1, r})
+        for v in lines:  # the surface or tip and at least one cell of h either side are in cells of h/r
+            for d in (-0.99 * h, 0.0, 0.99 * h):
+                k = np.searchsorted(axis, v + d) - 1
+                assert axis[k + 1] - axis[k] == pytest.approx(h / r, rel=1e-9), (v, d)
