@@ -99,11 +99,10 @@ def fsi1_grid() -> dict[str, Any]:
     moved by ``shift·h`` in x and y), graded outside. The four rows of band cells around each of
     the bar's top and bottom surfaces and the four columns around its tip (at least one cell on
     either side for every shift in [0, 1)) are divided ``r`` times across (``r = 1``: the plain
-    band). The two re-entrant corners of the fluid at the tip are the only
-    singular points of the flow (traction ∝ r^-0.46); on the plain band the error they leave in
-    the bar's bending moment depends on where they sit in their cells (uy(A) −6 … +4 % over six
-    positions at m = 12), refined r = 4 times it falls to −1.1 … +2.4 % (docs/validation.md).
-    Needs m ≥ 6: the bar's
+    band). The two re-entrant corners of the fluid at the tip are the only singular points of the
+    flow (traction ∝ r^-0.46); on the plain band the error they leave in the bar's bending moment
+    depends on where they sit in their cells (uy(A) −6 … +4 % over six positions at m = 12),
+    refined r = 4 times it falls to −1.1 … +2.4 % (docs/validation.md). Needs m ≥ 6: the bar's
     surfaces lie on the lattice lines ``floor(2.5 m)`` and ``floor(3.5 m)`` of the band, with
     cells between the two refined rows.
     """
