@@ -1,6 +1,7 @@
 """Mesh convergence of Turek-Hron FSI1 with cylinder and bar embedded (docs/validation.md).
 
 Usage:  python benchmarks/convergence_fsi1.py [--m 6 8 12 16] [--r 1] [--ny 16] [--shift 0 0.37] [--moments]
+        [--set KEY=VALUE ...]
 
 ``--r`` is the case's refinement of the rows and columns at the bar's surfaces and tip
 (1: the plain uniform band). ``--shift s`` moves the band of the background grid (and so
@@ -49,6 +50,8 @@ ap.add_argument("--ny", type=int, default=16)
 ap.add_argument("--shift", type=float, nargs="+", default=[0.0],
                 help="band shifts in cells (0 = bar surfaces on grid lines)")
 ap.add_argument("--moments", action="store_true", help="print the bar's bending moment by face")
+ap.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                help="further case overrides (repeatable), e.g. time.dt=0.25")
 args = ap.parse_args()
 print("| m (cells across bar), r, shift | h | unknowns | ux(A) | err | uy(A) | err | drag | err | lift | err | Newton | time [s] |")
 print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
@@ -56,7 +59,7 @@ for m in args.m:
     errors = []
     for shift in args.shift:
         c = get_case("turek-hron-fsi1")
-        for o in (f"m={m}", f"shift={shift}", f"ny={args.ny}", f"nx={args.ny * 35 // 2}"):
+        for o in (f"m={m}", f"shift={shift}", f"ny={args.ny}", f"nx={args.ny * 35 // 2}", *args.overrides):
             apply_override(c, o)
         if args.r is not None:
             apply_override(c, f"r={args.r}")

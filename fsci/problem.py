@@ -94,6 +94,7 @@ class InterfaceSettings:
     eps_geom: float = 1e-9  # re-cut while the bodies moved more than eps_geom * (smallest cell) since the last cut
     grow_only_after: int = 5  # Newton iterations after which the ACTIVE set may only grow
     freeze_cut_after: int = 8  # Newton iterations after which the cut is kept fixed (paper 3.4.2)
+    own_cut_tol: float = 1e-6  # a state converged on a frozen cut is accepted if the bodies moved less (× smallest cell)
     max_layout_changes: int = 5  # ACTIVE-set changes tolerated in one step before growing only
     kappa0: float = 0.1  # dimensionless slip coefficient of the gap law (40)
     slip_h: float = 0.0  # distance h of the gap law (40); 0: the largest background cell side

@@ -756,6 +756,8 @@ INTERFACE = Table([
     Key("eps_geom", Num(0.0), 1e-9, "re-cut when bodies moved more than this × smallest cell"),
     Key("grow_only_after", Int(1), 5, "Newton iterations after which the active set may only grow"),
     Key("freeze_cut_after", Int(1), 8, "Newton iterations after which the cut is kept (paper §3.4.2)"),
+    Key("own_cut_tol", Num(0.0), 1e-6, "a state converged on a frozen cut is accepted if the bodies moved less "
+        "than this × smallest cell since the cut; else the cut follows again"),
     Key("max_layout_changes", Int(0), 5, "active-set changes in a step before it may only grow"),
     Key("kappa0", Num(0.0), 0.1, "κ0 of the slip-length gap law (paper eq. (40))"),
     Key("slip_h", Num(0.0), 0.0, "h of the gap law (0: the largest fluid cell side)", "length"),

@@ -38,6 +38,7 @@ class System:
         self.cut: CutState | None = None
         self.layout_changes = 0
         self._cut_frozen = False
+        self._follow_until = 0  # the cut follows the iterates up to this iteration of the step
         self.timings = {"cut": 0.0, "assembly": 0.0}
         if self.fluid is not None:
             try:
@@ -112,11 +113,24 @@ class System:
         tolerance, so that a fluid at rest — velocity at round-off — counts as converged)."""
         return self.stab_change <= settings.outer_tol * self.stab_scale + settings.tol_increment
 
-    def _moved_since_cut(self) -> bool:
-        """True if a body moved more than ``eps_geom`` × (smallest cell) since the last cut."""
+    def _motion_since_cut(self) -> float:
+        """Largest body displacement since the last cut, in units of the smallest cell side."""
         moved = max(float(np.max(np.abs(s.U - u0), initial=0.0)) for s, u0 in zip(self.solids, self._u_at_cut))
         g = self.fluid.grid
-        return moved > self.fluid.spec.interface.eps_geom * min(float(np.diff(g.xs).min()), float(np.diff(g.ys).min()))
+        return moved / min(float(np.diff(g.xs).min()), float(np.diff(g.ys).min()))
+
+    def cut_is_own(self, it: int) -> bool:
+        """Whether a state that Newton converged to satisfies its own cut. On a frozen cut the
+        bodies may have moved on; if they moved more than ``own_cut_tol`` × (smallest cell), the
+        state solves another geometry (its forces on the bodies include the mismatch), so the
+        cut follows the iterates again for ``freeze_cut_after`` iterations from iteration ``it``."""
+        if self.fluid is None or not self._cut_frozen:
+            return True
+        if self._motion_since_cut() <= self.fluid.spec.interface.own_cut_tol:
+            return True
+        self._cut_frozen = False
+        self._follow_until = it + self.fluid.spec.interface.freeze_cut_after
+        return False
 
     def moving(self) -> bool:
         """True if a body's shape or position is an unknown (its cut may change in Newton)."""
@@ -125,9 +139,10 @@ class System:
     def before_iteration(self, it: int) -> bool:
         """Before assembling Newton iteration ``it``: for steady flow, lag the frozen
         stabilisation velocity; re-cut while the bodies moved more than eps_geom since the last
-        cut and at most ``freeze_cut_after`` iterations into the step (paper Sec. 3.4.2; the
-        shape derivative is left out of the Jacobian once the cut is frozen), and apply the
-        solution-space update rule (Sec. 3.4.3). Returns True if the dof layout changed."""
+        cut and at most ``freeze_cut_after`` iterations into the step or since
+        :meth:`cut_is_own` rejected a frozen-cut state (paper Sec. 3.4.2; the shape derivative
+        is left out of the Jacobian while the cut is frozen), and apply the solution-space
+        update rule (Sec. 3.4.3). Returns True if the dof layout changed."""
         f = self.fluid
         if f is not None and self.ctx.static:
             self.stab_change = float(np.max(np.abs(f.V - f.Vbar), initial=0.0))
@@ -139,10 +154,11 @@ class System:
         st = self.fluid.spec.interface
         if it == 2:
             self._cut_frozen = False
-        if it > st.freeze_cut_after:
+            self._follow_until = st.freeze_cut_after
+        if it > self._follow_until:
             self._cut_frozen = True
             return False  # cut kept fixed: Newton finishes on it (its Jacobian is exact)
-        if not self._moved_since_cut():
+        if self._motion_since_cut() <= st.eps_geom:
             return False
         grow_only = it > st.grow_only_after or self.layout_changes >= st.max_layout_changes
         keep = self._step_active if grow_only else None

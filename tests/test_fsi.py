@@ -147,6 +147,37 @@ def test_newton_is_quadratic(follow):
     assert order.max() >= 1.8, (r, order)
 
 
+@pytest.mark.parametrize("own_cut_tol", [1e-6, 1e20])
+def test_a_state_converged_on_a_frozen_cut_is_accepted_only_on_its_own_cut(own_cut_tol):
+    """A sinking-disk step with the cut frozen from the third iteration (``freeze_cut_after
+    = 2``): Newton converges on the cut of iteration 2 while the disk moves on. With the default
+    ``own_cut_tol`` that state is not accepted — the cut follows again until the converged
+    state's cut is its own (measured: the disk moved 1e-12 cells since it) and the mass balance
+    (46) holds to solver tolerance (6e-11 of the flux); accepting it (``own_cut_tol`` = 1e20,
+    the rule switched off) leaves a disk 1.1e-5 cells past its cut and a mass error of 4e-4."""
+    from fsci.post.quantities import mass_balance
+
+    case = get_case("sinking-disk")
+    for o in ("n=16", "solver.tol_residual=1e-11", "fluid.interface.freeze_cut_after=2",
+              f"fluid.interface.own_cut_tol={own_cut_tol}"):
+        apply_override(case, o)
+    system = System(problem_from_dict(case))
+    ctx = StepContext(0.0, 0.05, 0.05, 1.0, False)
+    system.begin_step(ctx)
+    rep = solve_nonlinear(system, ctx, system.problem.solver, make_linear_solver("auto"))
+    assert rep.converged
+    system.finish_step(ctx)
+    m = mass_balance(system, "m")
+    moved = system._motion_since_cut()
+    print("motion since cut", moved, "cells; err1", m["m_err1"], "of", abs(m["m_phi_solid"]))
+    if own_cut_tol < 1.0:
+        assert moved <= own_cut_tol
+        assert m["m_err1"] < 1e-9 * abs(m["m_phi_solid"])
+    else:
+        assert moved > 10.0 * 1e-6  # measured 1.1e-5 cells
+        assert m["m_err1"] > 1e-5 * abs(m["m_phi_solid"])  # measured 4e-4
+
+
 def test_stamp_falling_mass_balance_and_interface_flux_rate(tmp_path):
     """Stamp (falling phase) on h = 1/16 and 1/32, t ∈ [0, 1] (Δt = 0.05): the discrete mass balance (46)
     holds to solver tolerance at every step and the stamp falls; the weak-imposition error

@@ -98,7 +98,12 @@ def stamp() -> dict[str, Any]:
             ],
             "neumann": [{"boundary": "top", "type": "pressure", "value": "p_rate",
                          "function": {"type": "linear", "slope": 1.0, "t0": 1000.0}}],
-            "interface": {"kappa0": 0.1},
+            # resting on the slab the residual is not differentiable (points changing case, Γ^SC
+            # ends crossing grid lines): Newton converges on the frozen cut with the stamp up to
+            # 3e-3 cells past it (measured over 150 contact steps), and re-following the cut
+            # then cycles (338 step cuts with 1e-6 in the whole run); 1e-2 still rejects a state
+            # of another geometry (architecture decision 24)
+            "interface": {"kappa0": 0.1, "own_cut_tol": 1e-2},
         },
         "time": {"type": "transient", "theta": 1.0,
                  "segments": [{"until": 20.0, "dt": 0.01}, {"until": 420.0, "dt": 0.2}, {"until": 2500.0, "dt": 2.0}]},

@@ -106,10 +106,13 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
         tiny = all(norms[f] <= 1e-3 * settings.tol_residual for f in norms)
         solves = it - 1
         extra_ok = system.converged_extra(settings) if hasattr(system, "converged_extra") else True
+        recut = False
         if res_ok and (inc_ok or tiny) and solves >= settings.min_iterations and not layout_changed and extra_ok:
-            report.converged = True
-            report.iterations = solves
-            return report
+            if not hasattr(system, "cut_is_own") or system.cut_is_own(it):
+                report.converged = True
+                report.iterations = solves
+                return report
+            recut = True  # the cut follows again: the jump of the re-cut residual is no reason to damp
         if it > settings.max_iterations:
             break
         if settings.damping and totals:
@@ -120,6 +123,8 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
             else:
                 lam = lam / DAMP_UP if lam < DAMP_UP else 1.0
         totals.append(total)
+        if recut:
+            totals, lam = [], 1.0
         try:
             dx = linear.solve(asm.matrix(), -R, asm.pattern.key)
         except SolverError as exc:
