@@ -48,7 +48,7 @@ def test_default_run_meets_its_references(tmp_path, name):
 FSI1_SHIFTS = (0.0, 0.2, 0.37, 0.5, 0.63, 0.8)
 
 
-@pytest.mark.long  # six runs of 8-13 min on 2 cores
+@pytest.mark.long  # six runs of 9-19 min on 2 cores (540-1115 s measured)
 def test_fsi1_refined_grid_is_independent_of_the_grid_position():
     """FSI1 at m = 12 with the rows and columns at the bar's surfaces and tip refined r = 8,
     at six positions of the background grid (bar surfaces on grid lines, and 0.2 … 0.8 cells
