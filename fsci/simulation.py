@@ -317,6 +317,7 @@ class Simulation:
             "final_time": self.t,
             "timings": {**{k: round(v, 3) for k, v in self.system.timings.items()},
                         **{k: round(v, 3) for k, v in self.linear.timings.items()}},
+            "counts": {**self.system.counts, **self.linear.counts},
         }
         return res
 

@@ -40,6 +40,7 @@ class System:
         self._cut_frozen = False
         self._follow_until = 0  # the cut follows the iterates up to this iteration of the step
         self.timings = {"cut": 0.0, "assembly": 0.0}
+        self.counts = {"cut": 0, "assembly": 0, "residual_only": 0}  # residual_only: assemblies without matrix
         if self.fluid is not None:
             try:
                 self.update_cut(initial=True)
@@ -85,6 +86,7 @@ class System:
         st = f.spec.interface
         cut = CutState(f.grid, outlines, st.island_factor, keep_nodes=keep_nodes, film_closure=st.film_closure)
         self.timings["cut"] += time.perf_counter() - t0
+        self.counts["cut"] += 1
         if initial:
             g = f.grid
             for o in outlines:
@@ -119,18 +121,20 @@ class System:
         g = self.fluid.grid
         return moved / min(float(np.diff(g.xs).min()), float(np.diff(g.ys).min()))
 
-    def cut_is_own(self, it: int) -> bool:
-        """Whether a state that Newton converged to satisfies its own cut. On a frozen cut the
-        bodies may have moved on; if they moved more than ``own_cut_tol`` × (smallest cell), the
-        state solves another geometry (its forces on the bodies include the mismatch), so the
-        cut follows the iterates again for ``freeze_cut_after`` iterations from iteration ``it``."""
+    def cut_is_own(self) -> bool:
+        """Whether a state that Newton converged to satisfies its own cut: the cut follows the
+        iterates, or on a frozen cut the bodies moved at most ``own_cut_tol`` × (smallest cell)
+        since it was made. Otherwise the state solves another geometry (its forces on the
+        bodies include the mismatch) and :meth:`follow_cut_again` must be called."""
         if self.fluid is None or not self._cut_frozen:
             return True
-        if self._motion_since_cut() <= self.fluid.spec.interface.own_cut_tol:
-            return True
+        return self._motion_since_cut() <= self.fluid.spec.interface.own_cut_tol
+
+    def follow_cut_again(self, it: int) -> None:
+        """A frozen-cut state was not the state's own cut: the cut follows the iterates again
+        for ``freeze_cut_after`` iterations from iteration ``it``."""
         self._cut_frozen = False
         self._follow_until = it + self.fluid.spec.interface.freeze_cut_after
-        return False
 
     def moving(self) -> bool:
         """True if a body's shape or position is an unknown (its cut may change in Newton)."""
@@ -140,7 +144,7 @@ class System:
         """Before assembling Newton iteration ``it``: for steady flow, lag the frozen
         stabilisation velocity; re-cut while the bodies moved more than eps_geom since the last
         cut and at most ``freeze_cut_after`` iterations into the step or since
-        :meth:`cut_is_own` rejected a frozen-cut state (paper Sec. 3.4.2; the shape derivative
+        :meth:`follow_cut_again` was called for a frozen-cut state (paper Sec. 3.4.2; the shape derivative
         is left out of the Jacobian while the cut is frozen), and apply the solution-space
         update rule (Sec. 3.4.3). Returns True if the dof layout changed."""
         f = self.fluid
@@ -333,6 +337,7 @@ class System:
             dofs, vals = self.dirichlet(ctx.t_new)
             asm.apply_dirichlet(dofs, self.gather()[dofs] - vals)
         self.timings["assembly"] += time.perf_counter() - t0
+        self.counts["assembly" if want_matrix else "residual_only"] += 1
         return asm
 
 

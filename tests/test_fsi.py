@@ -178,6 +178,41 @@ def test_a_state_converged_on_a_frozen_cut_is_accepted_only_on_its_own_cut(own_c
         assert m["m_err1"] > 1e-5 * abs(m["m_phi_solid"])  # measured 4e-4
 
 
+@pytest.mark.parametrize("forced", [False, True])
+def test_residual_only_convergence_check_gives_the_same_iterates(monkeypatch, forced):
+    """Newton assembles the residual without its matrix where it predicts convergence
+    (``_likely_converged``) and the matrix afterwards if the prediction fails. Six steps of the
+    coarse stamp through its first re-cuts: forcing the prediction off (``False``: every
+    assembly with matrix, the behaviour before) or on (``True``: a residual-only assembly before
+    every matrix) leaves every state array bit for bit as with the default prediction, which
+    skips the matrix in at least a third of the final checks."""
+    import fsci.solver.newton as newton_module
+    from fsci.system import snapshot
+
+    def run(predict=None):
+        if predict is not None:
+            monkeypatch.setattr(newton_module, "_likely_converged", lambda *a: predict)
+        case = get_case("stamp")
+        apply_override(case, "time.segments=[{until=0.06, dt=0.01}]")
+        sim = Simulation(problem_from_dict(case))
+        while not sim.finished():
+            sim.advance()
+        monkeypatch.undo()
+        return snapshot(sim.system), dict(sim.system.counts), sim.step
+
+    default, counts, steps = run()
+    other, other_counts, _ = run(forced)
+    assert steps == 6
+    assert default.keys() == other.keys()
+    for k in default:
+        assert np.array_equal(default[k], other[k]), k
+    assert counts["residual_only"] >= steps / 3, counts
+    if forced:
+        assert other_counts["residual_only"] == other_counts["assembly"] + steps, other_counts
+    else:
+        assert other_counts["residual_only"] == 0
+
+
 def test_stamp_falling_mass_balance_and_interface_flux_rate(tmp_path):
     """Stamp (falling phase) on h = 1/16 and 1/32, t ∈ [0, 1] (Δt = 0.05): the discrete mass balance (46)
     holds to solver tolerance at every step and the stamp falls; the weak-imposition error
@@ -279,9 +314,11 @@ class _Square:
             raise ArithmeticError("cannot be evaluated")
         self.evaluated.append(float(self.x[0]))
         J = np.array([[2.0 * self.x[0]]])
+        wm = want_matrix
 
         class Asm:
             rhs = self.x ** 2 - 4.0
+            want_matrix = wm
             pattern = type("P", (), {"key": None})()
 
             @staticmethod
