@@ -86,7 +86,8 @@ def main(argv: list[str] | None = None) -> None:
     fac = sim.linear.counts["factorization"] - cnt0["factorization"]
     other = wall - sum(d.values())
     print(f"{args.case} {' '.join(overrides)}: {sim.system.layout.n_dofs} unknowns, {args.steps} steps, "
-          f"{its} Newton iterations ({its / args.steps:.2f}/step), {fac} factorisations, {n_asm} assemblies with matrix + {n_res} without, "
+          f"{its} Newton iterations ({its / args.steps:.2f}/step), {fac} factorisations, "
+          f"{n_asm} assemblies with matrix + {n_res} without, "
           f"{'CPU' if args.cpu else 'wall'} {wall:.3f} s{' (under cProfile)' if prof else ''}")
     print("per Newton iteration [ms]: " + ", ".join(f"{k} {1e3 * v / max(its, 1):.2f}" for k, v in d.items())
           + f", other {1e3 * other / max(its, 1):.2f}, total {1e3 * wall / max(its, 1):.2f}")

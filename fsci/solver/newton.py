@@ -45,6 +45,11 @@ def _norms(vec: np.ndarray, dofs: dict[str, np.ndarray], kind: str) -> dict[str,
     return out
 
 
+def _increment_ok(inc_norms: dict[str, float] | None, settings: SolverSettings) -> bool:
+    """The increment test of the convergence check: every field's last update is small."""
+    return inc_norms is not None and all(v <= settings.tol_increment for v in inc_norms.values())
+
+
 def _likely_converged(system, settings: SolverSettings, it: int, inc_norms: dict[str, float] | None,
                       layout_changed: bool) -> bool:
     """Whether iteration ``it`` will probably pass the convergence test: the last update passed
@@ -57,9 +62,7 @@ def _likely_converged(system, settings: SolverSettings, it: int, inc_norms: dict
     dropped: on the coarse stamp the residual stalls near 1e-11 for one iteration after a
     re-cut, and 12 of 17 such predictions failed (each costing a residual assembly), while the
     increment test failed in none of 30 steps."""
-    if layout_changed or inc_norms is None or it - 1 < settings.min_iterations:
-        return False
-    if not all(v <= settings.tol_increment for v in inc_norms.values()):
+    if layout_changed or it - 1 < settings.min_iterations or not _increment_ok(inc_norms, settings):
         return False
     return not hasattr(system, "converged_extra") or system.converged_extra(settings)
 
@@ -122,7 +125,7 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
         if r0 is None:
             r0 = norms
         res_ok = all(norms[f] <= max(settings.tol_residual, settings.rtol_residual * r0[f]) for f in norms)
-        inc_ok = inc_norms is not None and all(v <= settings.tol_increment for v in inc_norms.values())
+        inc_ok = _increment_ok(inc_norms, settings)
         tiny = all(norms[f] <= 1e-3 * settings.tol_residual for f in norms)
         solves = it - 1
         extra_ok = system.converged_extra(settings) if hasattr(system, "converged_extra") else True
