@@ -13,7 +13,7 @@ from fsci.expressions import Expression
 from fsci.fem.quadrature import gauss_line, gauss_quad, gauss_triangle, triangle_rule
 from fsci.fem.sparse import DofLayout, Pattern, add_local
 from fsci.mesh import generate
-from fsci.mesh.gmsh_io import mesh_outline, read_msh
+from fsci.mesh.gmsh_io import initialize_gmsh, mesh_outline, read_msh
 from fsci.mesh.quadmesh import QuadMesh
 from fsci.timefunc import make_time_function
 
@@ -110,7 +110,7 @@ def test_gmsh_outline_and_msh_roundtrip(tmp_path):
     assert np.allclose(np.linalg.norm(m.nodes[m.node_sets["round"]], axis=1), 1.0, atol=1e-12)
     import gmsh
 
-    gmsh.initialize()
+    initialize_gmsh()
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("sq")

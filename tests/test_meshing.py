@@ -1,9 +1,14 @@
 """The gmsh meshers honour the requested boundary size ``h``: edges along the outline within
 20 % of h, also when a larger interior size ``h_max`` is given (the disk of issue 14 had edges of
 2.2 h with h = 0.00125, h_max = 0.01: the distance to the outline was measured to 20 samples per
-curve, so the size grew between them)."""
+curve, so the size grew between them). Meshing leaves the process's SIGPIPE handling as Python
+set it."""
 
 from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
 
 import numpy as np
 import pytest
@@ -54,3 +59,22 @@ def test_a_hole_outside_its_outline_is_an_input_error():
     m = read_mesh({"type": "outline", "loops": [square(0, 1, 0, 1), square(0.3, 0.6, 0.2, 0.4)[::-1]], "h": 0.1, "h_max": None, "refine": []},
                   "mesh", None)
     assert m.n_cells > 0
+
+
+def test_meshing_keeps_a_write_to_a_closed_pipe_an_exception():
+    """gmsh's initialisation resets SIGPIPE to 'terminate'; after a mesh is made, a write to a
+    closed pipe must still raise BrokenPipeError rather than kill the process (a Dask client's
+    closing socket did, exit 141). Checked in a child process, which is what dies otherwise."""
+    child = textwrap.dedent("""
+        import os
+        from fsci.config import read_mesh
+        read_mesh({"type": "disk", "center": [0, 0], "radius": 1.0, "h": 0.5, "h_max": None, "name": "s"}, "mesh", None)
+        r, w = os.pipe()
+        os.close(r)
+        try:
+            os.write(w, b"x")
+        except BrokenPipeError:
+            print("BrokenPipeError")
+    """)
+    done = subprocess.run([sys.executable, "-c", child], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0 and done.stdout.strip() == "BrokenPipeError", (done.returncode, done.stderr)

@@ -11,6 +11,8 @@
 from __future__ import annotations
 
 import math
+import signal
+import threading
 from collections import defaultdict
 from typing import Any, Mapping, Sequence
 
@@ -97,6 +99,23 @@ def _check_loops(loops: Sequence[Sequence[Mapping[str, Any]]]) -> None:
                 raise InputError(f"loops[{i}]", f"a hole touching loops[{j}]", "holes apart from each other")
 
 
+def initialize_gmsh() -> None:
+    """Start gmsh without letting it change how the process treats SIGPIPE.
+
+    gmsh's C++ initialisation resets SIGPIPE to its default action (terminate), which Python
+    ignores so that a write to a closed pipe or socket raises ``BrokenPipeError``. Left reset,
+    any later write to a closed socket kills the whole process without a word (seen: a Dask
+    client's socket closing after a mesh was made killed the test run, exit 141).
+    """
+    import gmsh
+
+    sigpipe = getattr(signal, "SIGPIPE", None)  # not on Windows
+    before = signal.getsignal(sigpipe) if sigpipe is not None else None
+    gmsh.initialize(interruptible=False)
+    if before is not None and threading.current_thread() is threading.main_thread():
+        signal.signal(sigpipe, before)  # only the main thread may set a handler
+
+
 def mesh_outline(loops: Sequence[Sequence[Mapping[str, Any]]], h: float, *, h_max: float | None = None,
                  refine: Sequence[Mapping[str, Any]] = (), algorithm: int = 8) -> QuadMesh:
     """Mesh a 2D region bounded by closed loops of lines and arcs with quads.
@@ -134,7 +153,7 @@ def mesh_outline(loops: Sequence[Sequence[Mapping[str, Any]]], h: float, *, h_ma
     _check_loops(loops)
     initialized_here = not gmsh.isInitialized()
     if initialized_here:
-        gmsh.initialize(interruptible=False)
+        initialize_gmsh()
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("fsci_outline")
