@@ -22,10 +22,11 @@ from fsci.system import System
 from helpers import check_jacobian
 
 
-def two_bodies_in_fluid(variant: str) -> tuple[System, StepContext, np.ndarray]:
+def two_bodies_in_fluid(variant: str, shape_derivative: bool = False) -> tuple[System, StepContext, np.ndarray]:
     """Two elastic blocks in a fluid box: the upper one, tilted, overlaps the lower one on its
     left and opens a gap below the slip-law distance h on its right. A random state (θ = 0.6
-    step, random old level) puts interface points in every case I-IV."""
+    step, random old level) puts interface points in every case I-IV. ``shape_derivative``:
+    the Jacobian includes the motion of the cut (to be checked with the cut following)."""
     lower = {"name": "lower", "material": {"law": "neo_hooke", "E": 10.0, "nu": 0.3, "rho": 1.0},
              "mesh": {"type": "rectangle", "x0": 0.1, "x1": 0.9, "y0": 0.13, "y1": 0.45, "nx": 4, "ny": 2},
              "dirichlet": [{"boundary": "bottom", "value": [0.0, 0.0]}],
@@ -39,7 +40,8 @@ def two_bodies_in_fluid(variant: str) -> tuple[System, StepContext, np.ndarray]:
              "contact": ["bottom"], "slip_length": "gap_law"}
     # the cut stays frozen in the check: the Jacobian without the cut's motion (see test_cutfem for
     # the shape derivative, checked with the cut following the differences)
-    fluid = fluid_box(8, mu=0.3, interface={"case_iii": variant, "film_closure": 0.0, "shape_derivative": False},
+    fluid = fluid_box(8, mu=0.3, interface={"case_iii": variant, "film_closure": 0.0,
+                                            "shape_derivative": shape_derivative},
                       dirichlet=[{"boundary": "left", "value": [1.0, 0.0]}])
     case = static_case([lower, upper], fluid)
     case["time"] = {"type": "transient", "theta": 1.0, "t_end": 0.1, "dt": 0.1}
@@ -79,6 +81,21 @@ def test_coupling_jacobian_in_every_case(variant):
     assert np.any((case == tk.CASE_I) & (gap > 0) & (gap < term.slip_h))  # law (40) between 0 and h
     assert np.any(term.pieces(system).ext_edge >= 0)
     check_jacobian(system, ctx, x0, h=1e-7, label=f"FSCI {variant}")
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError,
+                   reason="with bodies overlapping, the cut's motion is linearised only in part "
+                   "(docs/architecture.md, decision 21: Newton converges linearly in contact)")
+def test_coupling_jacobian_with_the_cut_following_in_contact():
+    """The state of :func:`test_coupling_jacobian_in_every_case` with the cut rebuilt for every
+    difference and the shape derivative in the Jacobian, as Newton sees it while the cut
+    follows the iterates. Measured: per-block errors 0.08-0.99 in every block with a
+    displacement column (the p-u block 0.3, u:lower-u:upper 0.99), 1e-7 or less elsewhere; the
+    same check on one body in fluid passes (tests/test_cutfem.py). Left: where the wetted part
+    of an edge ends at the other body (fixed with the cut), the extension point of case IV
+    (fixed with the cut), and a fluid-row error at the contact zone not yet located."""
+    system, ctx, x0 = two_bodies_in_fluid("remark6", shape_derivative=True)
+    check_jacobian(system, ctx, x0, h=1e-7, recut=True, label="FSCI, cut following")
 
 
 def test_case_iii_variants_differ_only_in_case_iii():
