@@ -38,8 +38,8 @@ def two_bodies_in_fluid(variant: str, shape_derivative: bool = False) -> tuple[S
                  "top": {"line": [[0.23, 0.81], [0.77, 0.81]]},
                  "left": {"line": [[0.23, 0.43], [0.23, 0.81]]}}},
              "contact": ["bottom"], "slip_length": "gap_law"}
-    # the cut stays frozen in the check: the Jacobian without the cut's motion (see test_cutfem for
-    # the shape derivative, checked with the cut following the differences)
+    # by default the cut stays frozen in the check: the Jacobian without the cut's motion (see
+    # test_cutfem for the shape derivative, checked with the cut following the differences)
     fluid = fluid_box(8, mu=0.3, interface={"case_iii": variant, "film_closure": 0.0,
                                             "shape_derivative": shape_derivative},
                       dirichlet=[{"boundary": "left", "value": [1.0, 0.0]}])
@@ -91,9 +91,10 @@ def test_coupling_jacobian_with_the_cut_following_in_contact():
     difference and the shape derivative in the Jacobian, as Newton sees it while the cut
     follows the iterates. Measured: per-block errors 0.08-0.99 in every block with a
     displacement column (the p-u block 0.3, u:lower-u:upper 0.99), 1e-7 or less elsewhere; the
-    same check on one body in fluid passes (tests/test_cutfem.py). Left: where the wetted part
-    of an edge ends at the other body (fixed with the cut), the extension point of case IV
-    (fixed with the cut), and a fluid-row error at the contact zone not yet located."""
+    same check on one body in fluid passes (tests/test_cutfem.py). Fixed with the cut, and so
+    missing from the Jacobian: the end of an edge's wetted part at the other body and the
+    splits of wetted pieces at opposite-node projections; a fluid-row error at the contact zone
+    is not yet located (docs/architecture.md, decision 21)."""
     system, ctx, x0 = two_bodies_in_fluid("remark6", shape_derivative=True)
     check_jacobian(system, ctx, x0, h=1e-7, recut=True, label="FSCI, cut following")
 
@@ -274,3 +275,28 @@ def test_pump_shut_valve_holds_the_mass_of_each_fluid_piece(pump_compression):
     shut = r["pieces"] > 1
     assert shut.any()
     assert np.all(r["mass_err1_pieces"][shut] < 1e-6 * np.abs(r["mass_phi_solid"]).max())
+
+
+def test_a_division_by_zero_in_the_parallel_coupling_kernel_is_an_arithmetic_error(monkeypatch):
+    """numba hands an exception of a parallel worker on as SystemError with the original as its
+    context (seen: the coarse squeezed case with thick films closed stopped with it at first
+    contact); the coupling term passes the ZeroDivisionError on, which Newton treats as an
+    iterate that cannot be evaluated (backtracking, then a step cut), and anything else as it is."""
+    def worker_failed(*args):
+        try:
+            raise ZeroDivisionError("division by zero")
+        except ZeroDivisionError:
+            raise SystemError("CPUDispatcher(<function _piece_locals>) returned a result with an exception set")
+
+    def worker_broken(*args):
+        raise SystemError("something else")
+
+    args = [None] * 36  # the mock ignores them, but for the piece count and want_matrix
+    args[1] = np.zeros((1, tk.N_INT), dtype=np.int64)
+    args[34] = False
+    monkeypatch.setattr(tk, "_piece_locals", worker_failed)
+    with pytest.raises(ZeroDivisionError):
+        tk.assemble_pieces(*args)
+    monkeypatch.setattr(tk, "_piece_locals", worker_broken)
+    with pytest.raises(SystemError):
+        tk.assemble_pieces(*args)

@@ -423,9 +423,17 @@ def assemble_pieces(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W
     R_all = np.zeros((n, N_LOCAL))
     K_all = np.zeros((n, N_LOCAL, N_LOCAL) if want_matrix else (0, N_LOCAL, N_LOCAL))
     used = np.zeros(n, dtype=np.bool_)
-    _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_all, vq_all, kap_all, Xe_all, We_all,
-                  vqe_all, Vo_all, bq_all, fprm, shape, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw, conn,
-                  want_matrix, out_all, R_all, K_all, used)
+    try:
+        _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_all, vq_all, kap_all, Xe_all,
+                      We_all, vqe_all, Vo_all, bq_all, fprm, shape, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw,
+                      conn, want_matrix, out_all, R_all, K_all, used)
+    except SystemError as exc:
+        # numba passes an exception of a parallel worker on as SystemError with the original as
+        # its context: an arithmetic failure is an iterate the model cannot evaluate, and Newton
+        # must see it as such (backtracking, then a step cut) instead of stopping the run
+        if isinstance(exc.__context__, ArithmeticError):
+            raise exc.__context__ from None
+        raise
     _add_pieces(conn, pos, R_all, K_all, used, data, rhs, row_base, row_len, start, ndof, want_matrix)
 
 
