@@ -5,6 +5,7 @@ the predicted load, contact through a closing film with mass balance, bad input.
 
 from __future__ import annotations
 
+import inspect
 import json
 
 import numpy as np
@@ -291,12 +292,12 @@ def test_a_division_by_zero_in_the_parallel_coupling_kernel_is_an_arithmetic_err
     def worker_broken(*args):
         raise SystemError("something else")
 
-    args = [None] * 36  # the mock ignores them, but for the piece count and want_matrix
-    args[1] = np.zeros((1, tk.N_INT), dtype=np.int64)
-    args[34] = False
+    # the mock ignores the arguments but for the piece count and want_matrix
+    args = dict.fromkeys(inspect.signature(tk.assemble_pieces).parameters)
+    args.update(ip_all=np.zeros((1, tk.N_INT), dtype=np.int64), want_matrix=False)
     monkeypatch.setattr(tk, "_piece_locals", worker_failed)
     with pytest.raises(ZeroDivisionError):
-        tk.assemble_pieces(*args)
+        tk.assemble_pieces(**args)
     monkeypatch.setattr(tk, "_piece_locals", worker_broken)
     with pytest.raises(SystemError):
-        tk.assemble_pieces(*args)
+        tk.assemble_pieces(**args)
