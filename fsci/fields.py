@@ -291,7 +291,11 @@ class FluidField:
         self.qptr = cut.qptr
         self.qx = cut.qx
         self.qw = cut.qw
-        keep = np.ones(len(cut.faces), dtype=bool) if self.spec.stabilization.ghost_penalty else ~cut.ghost
+        st = self.spec.stabilization
+        # "residual": the cells carry the bulk stabilisation, the faces only the ghost penalty
+        keep = np.ones(len(cut.faces), dtype=bool) if st.scheme == "cip" else cut.ghost.copy()
+        if not st.ghost_penalty:
+            keep &= ~cut.ghost
         self.faces = cut.faces[keep]
         self.ghost = cut.ghost[keep]
         self.face_nodes = fk.face_nodes(self.grid.cells, self.faces)
@@ -410,7 +414,8 @@ class FluidField:
     def cell_parameters(self, ctx: StepContext) -> np.ndarray:
         mass = 0.0 if ctx.static else self.rho / ctx.dt
         theta = 1.0 if ctx.static else ctx.theta
-        return np.array([self.rho, self.mu, self.sym, mass, theta])
+        residual = 1.0 if self.spec.stabilization.scheme == "residual" else 0.0
+        return np.array([self.rho, self.mu, self.sym, mass, theta, residual])
 
     def face_parameters(self, ctx: StepContext) -> np.ndarray:
         gu, gp, gdiv, ggp, ggpt = self.stab
@@ -423,7 +428,7 @@ class FluidField:
         conn = self.gnode[g.cells[self.int_cells]]
         Vo = self.Vn if not ctx.static else self.V
         fk.assemble_fluid_cells(g.xs, g.ys, g.nx, g.cells, self.int_cells, self.qptr, self.qx, self.qw,
-                                body_force_q, self.V, self.P, Vo, self.cell_parameters(ctx), self.gnode,
+                                body_force_q, self.V, self.P, Vo, self.Vbar, self.cell_parameters(ctx), self.gnode,
                                 asm.positions(conn), *tgt)
         fk.assemble_fluid_faces(g.xs, g.ys, g.nx, g.cells, self.faces, self.ghost.astype(np.bool_), self.Vbar, self.V, self.P,
                                 self.face_parameters(ctx), self.gnode, asm.positions(self.gnode[self.face_nodes]),

@@ -744,6 +744,10 @@ STABILIZATION = Table([
     Key("gamma_gp", Num(0.0), 0.5, "viscous ghost-penalty constant"),
     Key("gamma_gp_t", Num(0.0), 0.001, "transient ghost-penalty constant"),
     Key("ghost_penalty", Bool(), True, "face terms on faces of cut cells (false: studies only)"),
+    Key("scheme", Str(("cip", "residual")), "cip",
+        "bulk stabilisation: `cip`, the paper's face terms (25) on every face; `residual`, SUPG/PSPG/grad-div "
+        "in the cells with the face terms only on faces of cut cells (about 3× cheaper factorisation, "
+        "docs/performance.md)"),
 ], "[fluid.stabilization]", "Continuous-interior-penalty and ghost-penalty constants (paper eqs. (25), (26); "
                             "defaults: the 2D values of Schott et al. 2015 as used by 4C).")
 

@@ -251,10 +251,22 @@ def test_nitsche_coupling_jacobian_matches_finite_differences(adjoint, slip, the
     shape derivative on): the Jacobian includes the motion of the fluid boundary — Reynolds
     transport of the bulk integrals and the grid-line splits moving with the edges — measured
     ≤ 6e-9 (without it the p-u block is 28 % off)."""
+    _coupling_jacobian(adjoint, slip, theta, recut, "cip")
+
+
+@pytest.mark.parametrize("recut", [False, True])
+def test_nitsche_coupling_jacobian_with_the_residual_stabilisation(recut):
+    """The same with ``scheme = "residual"``: the SUPG/PSPG/grad-div cell terms enter the cut
+    cells and the shape derivative of the moving fluid boundary."""
+    _coupling_jacobian("skew", 0.2, 0.6, recut, "residual")
+
+
+def _coupling_jacobian(adjoint, slip, theta, recut, scheme):
     body = {"name": "blob", "material": {"law": "neo_hooke", "E": 10.0, "nu": 0.3, "rho": 1.0},
             "mesh": {"type": "rectangle", "x0": 0.33, "x1": 0.71, "y0": 0.37, "y1": 0.62, "nx": 3, "ny": 2},
             "slip_length": slip}
     fluid = fluid_box(5, mu=0.3, interface={"adjoint": adjoint, "shape_derivative": recut},
+                      stabilization={"scheme": scheme},
                       body_force=[0.3, "-1+x"], dirichlet=[{"boundary": "left", "value": [1.0, 0.0]}])
     case = static_case([body], fluid)
     case["time"] = {"type": "transient", "theta": 1.0, "t_end": 0.1, "dt": 0.1}
@@ -269,7 +281,7 @@ def test_nitsche_coupling_jacobian_matches_finite_differences(adjoint, slip, the
     x0 = 0.01 * rng.standard_normal(system.layout.n_dofs)
     x0[system.field_dofs["velocity"]] += rng.standard_normal(len(system.field_dofs["velocity"]))
     check_jacobian(system, ctx, x0, h=1e-7 if recut else 1e-6, recut=recut,
-                   label=f"{adjoint} κ={slip} θ={theta} recut={recut}")
+                   label=f"{scheme} {adjoint} κ={slip} θ={theta} recut={recut}")
 
 
 # ----------------------------------------------------------------------------- cases

@@ -304,6 +304,7 @@ class CouplingTerm:
         Xe = np.zeros((K, 2, 2))
         We = np.zeros((K, 2, 2))
         Vo = np.zeros((K, 4, 2))  # previous fluid velocity at the cell nodes (bulk shape derivative)
+        Vb = np.zeros((K, 4, 2))  # frozen stabilisation velocity there (residual-based scheme)
         vmax_s = np.zeros(K)
         fp[:, tk.F_S0] = pc.s0
         fp[:, tk.F_S1] = pc.s1
@@ -410,6 +411,7 @@ class CouplingTerm:
                 fp[sel, tk.F_AT] = hk / (st.gamma_t * st.trace_constant)
                 if not ctx.static:
                     Vo[sel] = f.Vn[g.cells[pc.cell[sel]]]
+                Vb[sel] = f.Vbar[g.cells[pc.cell[sel]]]
                 moving |= f.spec.body_force is not None
             sel = np.nonzero(has_ext)[0]
             if len(sel):
@@ -417,7 +419,7 @@ class CouplingTerm:
                 fp[sel, tk.F_GAME] = gam
                 fp[sel, tk.F_SE] = pc.ext_s[sel]
         out = dict(zidx=zidx, conn=conn, ip=ip, fp=fp, Xo=Xo, prmo=prmo, Xm=Xm, prmm=prmm, W=W, Xe=Xe, We=We, Vo=Vo,
-                   moving_data=moving)
+                   Vb=Vb, moving_data=moving)
         if not moving:  # evaluated once: constant slip lengths only
             out.update(self._position_data(system, ctx, level, pc))
         return out
@@ -445,11 +447,11 @@ class CouplingTerm:
              out: np.ndarray) -> None:
         f = system.fluid
         mu, sym = (1.0, 0.0) if f is None else (f.mu, f.sym)
-        fprm = np.zeros(5) if f is None else f.cell_parameters(ctx)
+        fprm = np.zeros(6) if f is None else f.cell_parameters(ctx)
         # the shape derivative is the derivative of the re-cut residual: not while the cut is frozen
         shape = f is not None and self.iset.shape_derivative and not getattr(system, "_cut_frozen", False)
         tk.assemble_pieces(d["z"], d["ip"], d["fp"], d["Xo"], d["prmo"], d["Xm"], d["prmm"], d["W"], d["vq"],
-                           d["kap"], d["Xe"], d["We"], d["vqe"], d["Vo"], d["bq"], fprm, shape, mu, sym, self.sadj,
+                           d["kap"], d["Xe"], d["We"], d["vqe"], d["Vo"], d["Vb"], d["bq"], fprm, shape, mu, sym, self.sadj,
                            self.variant33, *weights, self.gp, self.gw, d["conn"], asm.positions(d["conn"]),
                            *asm.target(), out)
 

@@ -45,7 +45,7 @@ from numba import njit, prange
 
 from fsci.fem.q1 import q1_physical_gradients, q1_shape
 from fsci.fem.sparse import add_local
-from fsci.physics.fluid import galerkin_density
+from fsci.physics.fluid import cell_density
 from fsci.physics.materials import cauchy_stress
 
 CS_STEP = 1e-30  # complex-step size
@@ -350,14 +350,14 @@ def piece_residual(z, r, out, ip, fp, Xo, prmo, Xm, prmm, W, vq, kap, Xe, We, vq
 
 
 @njit(cache=True)
-def add_bulk_shape_derivative(K, z, ip, fp, Xo, Vo, bq, fprm, gp, gw):
+def add_bulk_shape_derivative(K, z, ip, fp, Xo, Vo, Vb, bq, fprm, gp, gw):
     """Add to ``K`` (full local Jacobian) the derivative of the fluid bulk integrals (22) over the
     piece's cell with respect to the motion of the piece (Reynolds transport: moving Γ^FS by δu
     into the fluid removes fluid, ``δ ∫_{Ω^F} r_i = −∫_{Γ^FS} r_i (δu · n) ds``), where ``r_i`` is
-    the Galerkin integrand of fluid test function i (:func:`fsci.physics.fluid.galerkin_density`).
+    the cell integrand of fluid test function i (:func:`fsci.physics.fluid.cell_density`).
     Cut-cell quadrature is exact for these integrands, so this is the exact derivative of the
     discrete bulk residual with respect to the boundary position. ``Vo``: previous velocity at
-    the cell nodes, ``bq[g]``: body-force density at the Gauss points, ``fprm``: cell
+    the cell nodes, ``Vb``: the frozen stabilisation velocity there, ``bq[g]``: body-force density at the Gauss points, ``fprm``: cell
     parameters of the fluid kernel."""
     if (ip[I_FLAGS] & ON_FS) == 0:
         return
@@ -383,6 +383,7 @@ def add_bulk_shape_derivative(K, z, ip, fp, Xo, Vo, bq, fprm, gp, gw):
     Pe = np.empty(4)
     gv = np.empty((2, 2))
     dens = np.empty(12)
+    sp = np.empty(4)
     for A in range(4):
         Ve[A, 0] = z[OFF_CELL + 3 * A]
         Ve[A, 1] = z[OFF_CELL + 3 * A + 1]
@@ -394,7 +395,7 @@ def add_bulk_shape_derivative(K, z, ip, fp, Xo, Vo, bq, fprm, gp, gw):
         for A in range(4):
             dNx[A, 0] = dN[A, 0] * 2.0 / hx
             dNx[A, 1] = dN[A, 1] * 2.0 / hy
-        galerkin_density(N, dNx, Ve, Vo, Pe, gv, fprm, bq[g, 0], bq[g, 1], dens)
+        cell_density(N, dNx, hx, hy, Ve, Vo, Pe, Vb, gv, fprm, bq[g, 0], bq[g, 1], sp, dens)
         for r in range(12):
             f = -w * dens[r]
             K[OFF_CELL + r, 2 * ia] += f * (1.0 - s) * n0
@@ -408,7 +409,7 @@ _SLOT_NDOF = np.array([2, 2, 2, 2, 2, 2, 2, 2, 3, 3, 3, 3, 3, 3, 3, 3, 2, 2])
 
 
 def assemble_pieces(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_all, vq_all, kap_all, Xe_all,
-                    We_all, vqe_all, Vo_all, bq_all, fprm, shape, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw,
+                    We_all, vqe_all, Vo_all, Vb_all, bq_all, fprm, shape, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw,
                     conn, pos, data, rhs, row_base, row_len, start, ndof, want_matrix, out_all):
     """Add every piece: its residual and the Jacobian — complex step over its local unknowns,
     plus (``shape``) the derivative of the fluid bulk integrals with respect to the position of
@@ -425,7 +426,7 @@ def assemble_pieces(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W
     used = np.zeros(n, dtype=np.bool_)
     try:
         _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_all, vq_all, kap_all, Xe_all,
-                      We_all, vqe_all, Vo_all, bq_all, fprm, shape, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw,
+                      We_all, vqe_all, Vo_all, Vb_all, bq_all, fprm, shape, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw,
                       conn, want_matrix, out_all, R_all, K_all, used)
     except SystemError as exc:
         # numba passes an exception of a parallel worker on as SystemError with the original as
@@ -451,7 +452,7 @@ def _live_columns(conn_k, idx):
 
 @njit(cache=True, parallel=True)
 def _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_all, vq_all, kap_all, Xe_all,
-                  We_all, vqe_all, Vo_all, bq_all, fprm, shape, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw,
+                  We_all, vqe_all, Vo_all, Vb_all, bq_all, fprm, shape, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw,
                   conn, want_matrix, out_all, R_all, K_all, used):
     """Residual ``R_all[k]`` and full local Jacobian ``K_all[k]`` (N_LOCAL × N_LOCAL, columns of
     absent slots zero) of every piece; ``used[k]`` False for a piece that contributes nothing."""
@@ -482,7 +483,8 @@ def _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_a
                 for l in range(N_LOCAL):
                     Kf[l, j] = rc[l].imag / CS_STEP
             if shape:
-                add_bulk_shape_derivative(Kf, z, ip_all[k], fp_all[k], Xo_all[k], Vo_all[k], bq_all[k], fprm, gp, gw)
+                add_bulk_shape_derivative(Kf, z, ip_all[k], fp_all[k], Xo_all[k], Vo_all[k], Vb_all[k], bq_all[k], fprm, gp,
+                                          gw)
 
 
 @njit(cache=True)

@@ -37,7 +37,9 @@ from fsci.fem.q1 import q1_shape
 from fsci.fem.sparse import add_local
 
 # indices into the parameter vector of the cell kernel
-P_RHO, P_MU, P_SYM, P_MASS, P_THETA = range(5)
+P_RHO, P_MU, P_SYM, P_MASS, P_THETA, P_RESIDUAL = range(6)
+# constant of the inverse estimate in the residual-based τ (Bazilevs et al. 2007, linear elements)
+C_INV = 36.0
 # indices into the parameter vector of the face kernel
 S_RHO, S_MU, S_GU, S_GP, S_GDIV, S_GGP, S_GGPT, S_DTINV = range(8)
 
@@ -56,8 +58,7 @@ def galerkin_density(N, dNx, Ve, Voe, Pe, gv, prm, b0, b1, out):
     quadrature weight. ``N``, ``dNx``: shape functions and physical gradients at the point;
     ``Ve``, ``Voe``, ``Pe``: current and previous velocity, pressure at the nodes; ``b``: the
     (time-weighted) body force density. Fills ``gv`` with the velocity gradient; returns the
-    velocity and pressure. One definition for the cell integrals and the shape derivative of the
-    cut (the integrand on the moving fluid boundary, :mod:`fsci.coupling.traction`)."""
+    velocity and pressure."""
     rho = prm[P_RHO]
     mu = prm[P_MU]
     sym = prm[P_SYM]
@@ -107,20 +108,125 @@ def galerkin_density(N, dNx, Ve, Voe, Pe, gv, prm, b0, b1, out):
     return v0, v1, p
 
 
+# sign of the mixed derivative d²N_a/dξdη of the four Q1 shape functions (times 1/4)
+_MIXED = np.array([1.0, -1.0, 1.0, -1.0])
+
+
 @njit(cache=True)
-def assemble_fluid_cells(xs, ys, nx, gcells, cell_ids, qptr, qx, qw, bq, V, P, Vo, prm,
+def residual_stabilization_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, prm, b0, b1, sp, out):
+    """Add to ``out`` the integrand of the residual-based bulk stabilisation (``scheme =
+    "residual"``, the alternative to CIP (25) on every face)::
+
+        τ_M (ū·∇w + ∇q / ρ) · R_M(v, p) + ρ ν_C (div w)(div v)
+
+    (SUPG, PSPG and grad-div terms; Tezduyar 1991, Bazilevs et al. 2007), with the strong
+    momentum residual of the θ-step (pressure and continuity implicit as in (22))::
+
+        R_M = ρ/Δt (v - v_n) + θ (ρ v·∇v - μ ∇·(∇v + s ∇vᵀ)) + (1 - θ) (same at v_n) + ∇p - b
+
+    On a Q1 cell with sides ``hx, hy`` the Laplacian vanishes and ∇·∇vᵀ = ∇ div v reduces to the
+    mixed derivatives. With the metric G = diag(4/hx², 4/hy²)::
+
+        τ_M = ((2/Δt)² + ū·G ū + C_INV ν² G:G)^(-1/2),   ν_C = 1 / (τ_M tr G)
+
+    ``ū`` is the frozen stabilisation velocity (``Vbe`` at the nodes; the face scalings use the
+    same field), so τ and the streamline direction do not depend on the unknowns. ``gv`` must
+    hold the velocity gradient (:func:`galerkin_density` fills it). Fills ``sp`` with
+    (τ_M, ν_C, ū_x, ū_y) for the Jacobian."""
+    rho = prm[P_RHO]
+    mu = prm[P_MU]
+    sym = prm[P_SYM]
+    mc = prm[P_MASS]
+    th = prm[P_THETA]
+    dxy = 1.0 / (hx * hy)
+    ub0 = 0.0
+    ub1 = 0.0
+    v0 = 0.0
+    v1 = 0.0
+    vo0 = 0.0
+    vo1 = 0.0
+    go00 = 0.0
+    go01 = 0.0
+    go10 = 0.0
+    go11 = 0.0
+    m0 = 0.0
+    m1 = 0.0
+    mo0 = 0.0
+    mo1 = 0.0
+    dp0 = 0.0
+    dp1 = 0.0
+    for a in range(4):
+        ub0 += N[a] * Vbe[a, 0]
+        ub1 += N[a] * Vbe[a, 1]
+        v0 += N[a] * Ve[a, 0]
+        v1 += N[a] * Ve[a, 1]
+        vo0 += N[a] * Voe[a, 0]
+        vo1 += N[a] * Voe[a, 1]
+        go00 += Voe[a, 0] * dNx[a, 0]
+        go01 += Voe[a, 0] * dNx[a, 1]
+        go10 += Voe[a, 1] * dNx[a, 0]
+        go11 += Voe[a, 1] * dNx[a, 1]
+        m0 += _MIXED[a] * dxy * Ve[a, 0]
+        m1 += _MIXED[a] * dxy * Ve[a, 1]
+        mo0 += _MIXED[a] * dxy * Voe[a, 0]
+        mo1 += _MIXED[a] * dxy * Voe[a, 1]
+        dp0 += Pe[a] * dNx[a, 0]
+        dp1 += Pe[a] * dNx[a, 1]
+    g0 = 4.0 / (hx * hx)
+    g1 = 4.0 / (hy * hy)
+    nu = mu / rho
+    dtinv = mc / rho
+    tau = 1.0 / np.sqrt(4.0 * dtinv * dtinv + g0 * ub0 * ub0 + g1 * ub1 * ub1 + C_INV * nu * nu * (g0 * g0 + g1 * g1))
+    nuc = 1.0 / (tau * (g0 + g1))
+    # strong momentum residual; (∇ div v)_x = ∂xy v_y, (∇ div v)_y = ∂xy v_x on Q1
+    conv0 = v0 * gv[0, 0] + v1 * gv[0, 1]
+    conv1 = v0 * gv[1, 0] + v1 * gv[1, 1]
+    convo0 = vo0 * go00 + vo1 * go01
+    convo1 = vo0 * go10 + vo1 * go11
+    r0 = (mc * (v0 - vo0) + th * (rho * conv0 - mu * sym * m1) + (1.0 - th) * (rho * convo0 - mu * sym * mo1)
+          + dp0 - b0)
+    r1 = (mc * (v1 - vo1) + th * (rho * conv1 - mu * sym * m0) + (1.0 - th) * (rho * convo1 - mu * sym * mo0)
+          + dp1 - b1)
+    div = gv[0, 0] + gv[1, 1]
+    for a in range(4):
+        supg = tau * (ub0 * dNx[a, 0] + ub1 * dNx[a, 1])
+        out[3 * a] += supg * r0 + rho * nuc * dNx[a, 0] * div
+        out[3 * a + 1] += supg * r1 + rho * nuc * dNx[a, 1] * div
+        out[3 * a + 2] += tau / rho * (dNx[a, 0] * r0 + dNx[a, 1] * r1)
+    sp[0] = tau
+    sp[1] = nuc
+    sp[2] = ub0
+    sp[3] = ub1
+
+
+@njit(cache=True)
+def cell_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, prm, b0, b1, sp, out):
+    """Integrand of the fluid cell terms at one point: the Galerkin terms (22)
+    (:func:`galerkin_density`) plus, for ``scheme = "residual"``, the residual-based
+    stabilisation (:func:`residual_stabilization_density`). One definition for the cell
+    integrals and the shape derivative of the cut. Returns the velocity and pressure."""
+    v0, v1, p = galerkin_density(N, dNx, Ve, Voe, Pe, gv, prm, b0, b1, out)
+    if prm[P_RESIDUAL] != 0.0:
+        residual_stabilization_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, prm, b0, b1, sp, out)
+    return v0, v1, p
+
+
+@njit(cache=True)
+def assemble_fluid_cells(xs, ys, nx, gcells, cell_ids, qptr, qx, qw, bq, V, P, Vo, Vbar, prm,
                          gnode, pos, data, rhs, row_base, row_len, start, ndof, want_matrix):
-    """Add the Galerkin terms of (22) for the cells ``cell_ids``.
+    """Add the cell terms (:func:`cell_density`) for the cells ``cell_ids``.
 
     ``qx[qptr[k]:qptr[k+1]]`` are the physical quadrature points of cell ``cell_ids[k]`` with
     weights ``qw`` and body force density ``bq`` (already multiplied by rho and time-weighted).
-    ``V, P`` are the current and ``Vo`` the previous velocity on all background nodes.
+    ``V, P`` are the current and ``Vo`` the previous velocity on all background nodes, ``Vbar``
+    the frozen stabilisation velocity.
     """
     rho = prm[P_RHO]
     mu = prm[P_MU]
     sym = prm[P_SYM]
     mc = prm[P_MASS]
     th = prm[P_THETA]
+    residual = prm[P_RESIDUAL] != 0.0
     N = np.empty(4)
     dN = np.empty((4, 2))
     dNx = np.empty((4, 2))
@@ -129,12 +235,16 @@ def assemble_fluid_cells(xs, ys, nx, gcells, cell_ids, qptr, qx, qw, bq, V, P, V
     nodes = np.empty(4, dtype=np.int64)
     Ve = np.empty((4, 2))
     Voe = np.empty((4, 2))
+    Vbe = np.empty((4, 2))
     Pe = np.empty(4)
     gv = np.empty((2, 2))
     dens = np.empty(12)
+    sp = np.zeros(4)
+    dR = np.empty((2, 12))  # derivative of the strong momentum residual by the 12 cell unknowns
     for k in range(len(cell_ids)):
         c = cell_ids[k]
         x0, y0, hx, hy = _cell_geometry(xs, ys, nx, c)
+        dxy = 1.0 / (hx * hy)
         for a in range(4):
             n = gcells[c, a]
             nodes[a] = gnode[n]
@@ -142,6 +252,8 @@ def assemble_fluid_cells(xs, ys, nx, gcells, cell_ids, qptr, qx, qw, bq, V, P, V
             Ve[a, 1] = V[n, 1]
             Voe[a, 0] = Vo[n, 0]
             Voe[a, 1] = Vo[n, 1]
+            Vbe[a, 0] = Vbar[n, 0]
+            Vbe[a, 1] = Vbar[n, 1]
             Pe[a] = P[n]
         Ke[:] = 0.0
         Re[:] = 0.0
@@ -153,9 +265,32 @@ def assemble_fluid_cells(xs, ys, nx, gcells, cell_ids, qptr, qx, qw, bq, V, P, V
                 dNx[a, 0] = dN[a, 0] * 2.0 / hx
                 dNx[a, 1] = dN[a, 1] * 2.0 / hy
             w = qw[q]
-            v0, v1, p = galerkin_density(N, dNx, Ve, Voe, Pe, gv, prm, bq[q, 0], bq[q, 1], dens)
+            v0, v1, p = cell_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, prm, bq[q, 0], bq[q, 1], sp, dens)
             for a in range(12):
                 Re[a] += w * dens[a]
+            if want_matrix and residual:
+                tau, nuc, ub0, ub1 = sp[0], sp[1], sp[2], sp[3]
+                for b in range(4):
+                    adv = v0 * dNx[b, 0] + v1 * dNx[b, 1]
+                    for i in range(2):
+                        for kk in range(2):
+                            d = th * rho * N[b] * gv[i, kk]
+                            if i == kk:
+                                d += mc * N[b] + th * rho * adv
+                            else:
+                                d -= th * mu * sym * _MIXED[b] * dxy
+                            dR[i, 3 * b + kk] = d
+                        dR[i, 3 * b + 2] = dNx[b, i]
+                for a in range(4):
+                    supg = tau * (ub0 * dNx[a, 0] + ub1 * dNx[a, 1])
+                    for cb in range(12):
+                        Ke[3 * a, cb] += w * supg * dR[0, cb]
+                        Ke[3 * a + 1, cb] += w * supg * dR[1, cb]
+                        Ke[3 * a + 2, cb] += w * tau / rho * (dNx[a, 0] * dR[0, cb] + dNx[a, 1] * dR[1, cb])
+                    for b in range(4):
+                        for i in range(2):
+                            for kk in range(2):
+                                Ke[3 * a + i, 3 * b + kk] += w * rho * nuc * dNx[a, i] * dNx[b, kk]
             if want_matrix:
                 for a in range(4):
                     ra = 3 * a
