@@ -4,6 +4,7 @@ work (same rows, same commands).
 
     python benchmarks/bench_runs.py                 # all rows (about 10 minutes on 2 cores)
     python benchmarks/bench_runs.py --rows stamp-coarse fsi1
+    python benchmarks/bench_runs.py --set fluid.stabilization.scheme=residual   # an option on every row
     python benchmarks/bench_runs.py --help
 """
 
@@ -31,11 +32,12 @@ ROWS: dict[str, tuple[str, list[str], float, int, int]] = {
 }
 
 
-def run_row(name: str) -> dict[str, float]:
-    """Run one row without file output; return its figures."""
+def run_row(name: str, extra: tuple[str, ...] = ()) -> dict[str, float]:
+    """Run one row (with the overrides ``extra`` after the row's own) without file output;
+    return its figures."""
     case_name, overrides, *_ = ROWS[name]
     case = get_case(case_name)
-    for o in overrides:
+    for o in [*overrides, *extra]:
         apply_override(case, o)
     case["output"] = {"every": 0, "figures": False, "fields": False}
     sim = Simulation(problem_from_dict(case))
@@ -84,13 +86,15 @@ def main(argv: list[str] | None = None) -> None:
                     help="rows to run (default: stamp-coarse stamp-fine fsi1; stamp-fine-1 is the first fifth of "
                          "stamp-fine, for a loaded machine)")
     ap.add_argument("--rss", action="store_true", help="also print the RSS samples (every 250 steps) of each row")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="override for every row (repeatable), e.g. fluid.stabilization.scheme=residual")
     args = ap.parse_args(argv)
     print("| run | unknowns | steps | Newton (per step) | factorisations (reused) | cut | assembly | analysis "
           "| factor | solve | wall [s] | before [s] | speed-up | peak RSS [MB] | RSS growth [MB/1000 steps] |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in args.rows:
         with ProcessPoolExecutor(max_workers=1) as pool:  # a fresh process per row: its own peak RSS
-            r = pool.submit(run_row, name).result()
+            r = pool.submit(run_row, name, tuple(args.set)).result()
         before = ROWS[name][2]
         print(f"| {name} | {r['unknowns']} | {r['steps']} | {r['newton']} ({r['newton'] / max(r['steps'], 1):.2f}) "
               f"| {r['factorizations']} ({r['reused']}) | {r['cut']:.1f} | {r['assembly']:.1f} | {r['analysis']:.1f} "

@@ -25,7 +25,7 @@ import tomli_w
 
 from fsci import __version__
 from fsci.cases import CASES, get_case
-from fsci.config import apply_override, load_toml, problem_from_dict
+from fsci.config import apply_override, apply_overrides, load_toml, problem_from_dict
 from fsci.errors import InputError, MeshError, SolverError
 
 EXIT_CHECK, EXIT_INPUT, EXIT_SOLVER, EXIT_WRITE = 1, 2, 3, 4
@@ -91,9 +91,10 @@ def cmd_run(args) -> int:
     from fsci.simulation import Simulation
 
     case, base = case_dict(args.case)
-    for s in args.set or []:
-        apply_override(case, s)
+    settings = apply_overrides(case, args.set or [])
     problem = problem_from_dict(case, base)
+    if problem.verification is not None:
+        problem.verification.add_overrides(settings)
     out = Path(args.out) if args.out else Path("results") / safe_name(problem.name)
     prepare_out(out, args.overwrite)
     monitor = Monitor()

@@ -121,6 +121,22 @@ def apply_override(case: dict[str, Any], assignment: str) -> None:
     set_value(case, key.strip(), _parse_value(text.strip()), "--set")
 
 
+def apply_overrides(case: dict[str, Any], assignments: list[str]) -> dict[str, Any]:
+    """Apply ``--set`` overrides in order (:func:`apply_override`); returns those that changed
+    the case dictionary outside its parameters (key -> value as given), which leave a case's
+    verified setting just as a changed parameter does. (An override that restates the case
+    file's own value changes nothing; one that sets an absent key to its default is counted.)"""
+    changed: dict[str, Any] = {}
+    for a in assignments:
+        rest = {k: v for k, v in case.items() if k != "parameters"}
+        before = copy.deepcopy(rest)
+        apply_override(case, a)
+        if {k: v for k, v in case.items() if k != "parameters"} != before:
+            key, text = a.split("=", 1)
+            changed[key.strip()] = _parse_value(text.strip())
+    return changed
+
+
 def set_value(case: dict[str, Any], key: str, value: Any, source: str) -> None:
     """Set the dotted ``key`` of a case dictionary (see :func:`apply_override`); ``source``
     names where the assignment came from in error messages."""

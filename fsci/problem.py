@@ -191,15 +191,21 @@ class Verification:
     top-level ``verified_at`` table) and the parameters of this run that differ from them."""
 
     verified_at: dict[str, float]
-    differs: dict[str, float]  # parameter -> value in this run, for those that differ
+    differs: dict[str, Any]  # parameter (or other overridden key) -> value in this run, for those that differ
 
     def note(self) -> str | None:
         """One line saying that the run is not at the verified setting (None if it is)."""
         if not self.differs:
             return None
-        run = ", ".join(f"{k} = {v:g}" for k, v in self.differs.items())
-        ref = ", ".join(f"{k} = {self.verified_at[k]:g}" for k in self.differs)
+        run = ", ".join(f"{k} = {v:g}" if isinstance(v, (int, float)) else f"{k} = {v}" for k, v in self.differs.items())
+        ref = ", ".join(f"{k} = {self.verified_at[k]:g}" if k in self.verified_at else f"the case's own {k}"
+                        for k in self.differs)
         return f"note: not the verified setting ({run}; verified at {ref}): coarser or different from the tested run"
+
+    def add_overrides(self, settings: dict[str, Any]) -> None:
+        """Record ``--set`` overrides of keys other than the case parameters (e.g. a different
+        stabilisation scheme): the reference checks were verified with the case's own values."""
+        self.differs.update(settings)
 
 
 @dataclass

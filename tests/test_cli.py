@@ -161,6 +161,20 @@ def test_run_off_the_verified_setting_says_so(tmp_path, capsys):
     assert res["reference_checks"]
 
 
+def test_run_with_another_setting_than_the_verified_one_says_so(tmp_path, capsys):
+    """An override of a key outside the case parameters (here the Newton tolerance; the same
+    for a different stabilisation scheme) leaves the verified setting too; one that restates
+    the case file's own value does not."""
+    out = tmp_path / "tol"
+    assert main(["run", "turek-hron-csm1", "--set", "nx=20", "--set", "ny=2", "--set", "solver.tol_residual=1e-9",
+                 "--set", "solver.tol_increment=1e-10", "--out", str(out)]) == 0
+    notes = [line for line in capsys.readouterr().out.splitlines() if "note:" in line]
+    assert len(notes) == 1 and "solver.tol_residual = 1e-09" in notes[0], notes
+    assert "the case's own solver.tol_residual" in notes[0] and "solver.tol_increment" not in notes[0]
+    v = json.loads((out / "results.json").read_text())["verification"]
+    assert v["differs"] == {"nx": 20, "ny": 2, "solver.tol_residual": 1e-9}
+
+
 @pytest.mark.parametrize("value, field", [("{ zz = 1 }", "verified_at.zz"), ("{ E = 'x' }", "verified_at.E"),
                                           ("3", "verified_at")])
 def test_bad_verified_at_is_rejected(tmp_path, capsys, value, field):
