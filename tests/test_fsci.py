@@ -23,11 +23,13 @@ from fsci.system import System
 from helpers import check_jacobian
 
 
-def two_bodies_in_fluid(variant: str, shape_derivative: bool = False) -> tuple[System, StepContext, np.ndarray]:
+def two_bodies_in_fluid(variant: str, shape_derivative: bool = False,
+                        scheme: str = "cip") -> tuple[System, StepContext, np.ndarray]:
     """Two elastic blocks in a fluid box: the upper one, tilted, overlaps the lower one on its
     left and opens a gap below the slip-law distance h on its right. A random state (θ = 0.6
     step, random old level) puts interface points in every case I-IV. ``shape_derivative``:
-    the Jacobian includes the motion of the cut (to be checked with the cut following)."""
+    the Jacobian includes the motion of the cut (to be checked with the cut following);
+    ``scheme``: the fluid's bulk stabilisation."""
     lower = {"name": "lower", "material": {"law": "neo_hooke", "E": 10.0, "nu": 0.3, "rho": 1.0},
              "mesh": {"type": "rectangle", "x0": 0.1, "x1": 0.9, "y0": 0.13, "y1": 0.45, "nx": 4, "ny": 2},
              "dirichlet": [{"boundary": "bottom", "value": [0.0, 0.0]}],
@@ -43,7 +45,7 @@ def two_bodies_in_fluid(variant: str, shape_derivative: bool = False) -> tuple[S
     # test_cutfem for the shape derivative, checked with the cut following the differences)
     fluid = fluid_box(8, mu=0.3, interface={"case_iii": variant, "film_closure": 0.0,
                                             "shape_derivative": shape_derivative},
-                      dirichlet=[{"boundary": "left", "value": [1.0, 0.0]}])
+                      stabilization={"scheme": scheme}, dirichlet=[{"boundary": "left", "value": [1.0, 0.0]}])
     case = static_case([lower, upper], fluid)
     case["time"] = {"type": "transient", "theta": 1.0, "t_end": 0.1, "dt": 0.1}
     case["contact"] = {**case.get("contact", {}), "allow_overlap": True}  # the overlap is the point of the state
@@ -65,12 +67,13 @@ def two_bodies_in_fluid(variant: str, shape_derivative: bool = False) -> tuple[S
     return system, ctx, x0
 
 
-@pytest.mark.parametrize("variant", ["remark6", "original"])
-def test_coupling_jacobian_in_every_case(variant):
+@pytest.mark.parametrize("variant, scheme", [("remark6", "cip"), ("original", "cip"), ("remark6", "residual")])
+def test_coupling_jacobian_in_every_case(variant, scheme):
     """Every block of the coupling term against central differences (< 1e-6 of the block's own
     size, cut frozen) in a state with points in each case I-IV, the extension active in case
-    IV and the slip law (40) at 0 < g_n < h; case III as Remark 6 (35) and as (33)."""
-    system, ctx, x0 = two_bodies_in_fluid(variant)
+    IV and the slip law (40) at 0 < g_n < h; case III as Remark 6 (35) and as (33); with the
+    paper's CIP and with the residual-based bulk stabilisation."""
+    system, ctx, x0 = two_bodies_in_fluid(variant, scheme=scheme)
     system.scatter(x0)
     system.assemble(ctx, want_matrix=False)
     term = system.extra_terms[0]
@@ -81,7 +84,7 @@ def test_coupling_jacobian_in_every_case(variant):
     assert min(counts) > 0, counts
     assert np.any((case == tk.CASE_I) & (gap > 0) & (gap < term.slip_h))  # law (40) between 0 and h
     assert np.any(term.pieces(system).ext_edge >= 0)
-    check_jacobian(system, ctx, x0, h=1e-7, label=f"FSCI {variant}")
+    check_jacobian(system, ctx, x0, h=1e-7, label=f"FSCI {variant} {scheme}")
 
 
 @pytest.mark.xfail(strict=True, raises=AssertionError,
