@@ -12,4 +12,10 @@ import os as _os
 # on this machine (needed for bit-identical restarts; no measurable cost, docs/performance.md).
 _os.environ.setdefault("MKL_CBWR", "AUTO")
 
+# compiled kernels are cached per version of the source (numba alone would keep a kernel compiled
+# against an older version of a kernel it calls from another module)
+from fsci.kernel_cache import configure as _configure_kernel_cache  # noqa: E402
+
+_configure_kernel_cache(_os.path.dirname(__file__))
+
 __version__ = "0.1.0"
