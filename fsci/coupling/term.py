@@ -36,6 +36,7 @@ from fsci.errors import InputError
 from fsci.expressions import Expression
 from fsci.fem.quadrature import gauss_line, gauss_quad
 from fsci.fields import StepContext, time_weighted_vector
+from fsci.physics.fluid import N_CELL_PARAMETERS
 
 GAP_LAW = "gap_law"
 CASE_NAMES = ("I", "II", "III", "IV")
@@ -447,7 +448,7 @@ class CouplingTerm:
              out: np.ndarray) -> None:
         f = system.fluid
         mu, sym = (1.0, 0.0) if f is None else (f.mu, f.sym)
-        fprm = np.zeros(6) if f is None else f.cell_parameters(ctx)
+        fprm = np.zeros(N_CELL_PARAMETERS) if f is None else f.cell_parameters(ctx)
         # the shape derivative is the derivative of the re-cut residual: not while the cut is frozen
         shape = f is not None and self.iset.shape_derivative and not getattr(system, "_cut_frozen", False)
         tk.assemble_pieces(d["z"], d["ip"], d["fp"], d["Xo"], d["prmo"], d["Xm"], d["prmm"], d["W"], d["vq"],

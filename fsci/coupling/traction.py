@@ -382,6 +382,7 @@ def add_bulk_shape_derivative(K, z, ip, fp, Xo, Vo, Vb, bq, fprm, gp, gw):
     Ve = np.empty((4, 2))
     Pe = np.empty(4)
     gv = np.empty((2, 2))
+    go = np.empty((2, 2))
     dens = np.empty(12)
     sp = np.empty(4)
     for A in range(4):
@@ -395,7 +396,7 @@ def add_bulk_shape_derivative(K, z, ip, fp, Xo, Vo, Vb, bq, fprm, gp, gw):
         for A in range(4):
             dNx[A, 0] = dN[A, 0] * 2.0 / hx
             dNx[A, 1] = dN[A, 1] * 2.0 / hy
-        cell_density(N, dNx, hx, hy, Ve, Vo, Pe, Vb, gv, fprm, bq[g, 0], bq[g, 1], sp, dens)
+        cell_density(N, dNx, hx, hy, Ve, Vo, Pe, Vb, gv, go, fprm, bq[g, 0], bq[g, 1], sp, dens)
         for r in range(12):
             f = -w * dens[r]
             K[OFF_CELL + r, 2 * ia] += f * (1.0 - s) * n0

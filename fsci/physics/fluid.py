@@ -36,8 +36,9 @@ from numba import njit
 from fsci.fem.q1 import q1_shape
 from fsci.fem.sparse import add_local
 
-# indices into the parameter vector of the cell kernel
+# indices into the parameter vector of the cell kernel (N_CELL_PARAMETERS entries)
 P_RHO, P_MU, P_SYM, P_MASS, P_THETA, P_RESIDUAL = range(6)
+N_CELL_PARAMETERS = 6
 # constant of the inverse estimate in the residual-based τ (Bazilevs et al. 2007, linear elements)
 C_INV = 36.0
 # indices into the parameter vector of the face kernel
@@ -52,13 +53,13 @@ def _cell_geometry(xs, ys, nx, c):
 
 
 @njit(cache=True)
-def galerkin_density(N, dNx, Ve, Voe, Pe, gv, prm, b0, b1, out):
+def galerkin_density(N, dNx, Ve, Voe, Pe, gv, go, prm, b0, b1, out):
     """Integrand of the Galerkin residual (22) at one point for the 12 test functions of a cell
     (``out[3a + i]``: momentum of node a, component i; ``out[3a + 2]``: continuity), before the
     quadrature weight. ``N``, ``dNx``: shape functions and physical gradients at the point;
     ``Ve``, ``Voe``, ``Pe``: current and previous velocity, pressure at the nodes; ``b``: the
-    (time-weighted) body force density. Fills ``gv`` with the velocity gradient; returns the
-    velocity and pressure."""
+    (time-weighted) body force density. Fills ``gv`` and ``go`` with the current and previous
+    velocity gradient; returns the current and previous velocity and the pressure."""
     rho = prm[P_RHO]
     mu = prm[P_MU]
     sym = prm[P_SYM]
@@ -69,11 +70,8 @@ def galerkin_density(N, dNx, Ve, Voe, Pe, gv, prm, b0, b1, out):
     vo0 = 0.0
     vo1 = 0.0
     p = 0.0
-    go00 = 0.0
-    go01 = 0.0
-    go10 = 0.0
-    go11 = 0.0
     gv[:] = 0.0
+    go[:] = 0.0
     for a in range(4):
         v0 += N[a] * Ve[a, 0]
         v1 += N[a] * Ve[a, 1]
@@ -83,10 +81,12 @@ def galerkin_density(N, dNx, Ve, Voe, Pe, gv, prm, b0, b1, out):
         for j in range(2):
             gv[0, j] += Ve[a, 0] * dNx[a, j]
             gv[1, j] += Ve[a, 1] * dNx[a, j]
-        go00 += Voe[a, 0] * dNx[a, 0]
-        go01 += Voe[a, 0] * dNx[a, 1]
-        go10 += Voe[a, 1] * dNx[a, 0]
-        go11 += Voe[a, 1] * dNx[a, 1]
+            go[0, j] += Voe[a, 0] * dNx[a, j]
+            go[1, j] += Voe[a, 1] * dNx[a, j]
+    go00 = go[0, 0]
+    go01 = go[0, 1]
+    go10 = go[1, 0]
+    go11 = go[1, 1]
     div = gv[0, 0] + gv[1, 1]
     conv0 = v0 * gv[0, 0] + v1 * gv[0, 1]
     conv1 = v0 * gv[1, 0] + v1 * gv[1, 1]
@@ -105,7 +105,7 @@ def galerkin_density(N, dNx, Ve, Voe, Pe, gv, prm, b0, b1, out):
                        + (1.0 - th) * (rho * convo1 * N[a] + mu * visco) - p * dNx[a, 1] - b1 * N[a])
         # continuity
         out[ra + 2] = div * N[a]
-    return v0, v1, p
+    return v0, v1, vo0, vo1, p
 
 
 # sign of the mixed derivative d²N_a/dξdη of the four Q1 shape functions (times 1/4)
@@ -113,7 +113,7 @@ _MIXED = np.array([1.0, -1.0, 1.0, -1.0])
 
 
 @njit(cache=True)
-def residual_stabilization_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, prm, b0, b1, sp, out):
+def residual_stabilization_density(dNx, hx, hy, v0, v1, vo0, vo1, Ve, Voe, Pe, Vbe, gv, go, prm, b0, b1, sp, out):
     """Add to ``out`` the integrand of the residual-based bulk stabilisation (``scheme =
     "residual"``, the alternative to CIP (25) on every face)::
 
@@ -132,9 +132,9 @@ def residual_stabilization_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, prm, b0
     ``ū`` is the frozen stabilisation velocity (``Vbe`` at the nodes; the face scalings use the
     same field) at the cell centre, so τ, ν_C and the streamline direction are constants of the
     cell, independent of the unknowns, and the integrand stays a polynomial that the cut-cell
-    quadrature integrates exactly (which makes the shape derivative of the cut exact). ``gv`` must
-    hold the velocity gradient (:func:`galerkin_density` fills it). Fills ``sp`` with
-    (τ_M, ν_C, ū_x, ū_y) for the Jacobian."""
+    quadrature integrates exactly (which makes the shape derivative of the cut exact). The point
+    values ``v``, ``vo`` and gradients ``gv``, ``go`` are those :func:`galerkin_density` computed.
+    Fills ``sp`` with (τ_M, ν_C, ū_x, ū_y) for the Jacobian."""
     rho = prm[P_RHO]
     mu = prm[P_MU]
     sym = prm[P_SYM]
@@ -143,14 +143,6 @@ def residual_stabilization_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, prm, b0
     dxy = 1.0 / (hx * hy)
     ub0 = 0.0
     ub1 = 0.0
-    v0 = 0.0
-    v1 = 0.0
-    vo0 = 0.0
-    vo1 = 0.0
-    go00 = 0.0
-    go01 = 0.0
-    go10 = 0.0
-    go11 = 0.0
     m0 = 0.0
     m1 = 0.0
     mo0 = 0.0
@@ -160,14 +152,6 @@ def residual_stabilization_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, prm, b0
     for a in range(4):
         ub0 += 0.25 * Vbe[a, 0]
         ub1 += 0.25 * Vbe[a, 1]
-        v0 += N[a] * Ve[a, 0]
-        v1 += N[a] * Ve[a, 1]
-        vo0 += N[a] * Voe[a, 0]
-        vo1 += N[a] * Voe[a, 1]
-        go00 += Voe[a, 0] * dNx[a, 0]
-        go01 += Voe[a, 0] * dNx[a, 1]
-        go10 += Voe[a, 1] * dNx[a, 0]
-        go11 += Voe[a, 1] * dNx[a, 1]
         m0 += _MIXED[a] * dxy * Ve[a, 0]
         m1 += _MIXED[a] * dxy * Ve[a, 1]
         mo0 += _MIXED[a] * dxy * Voe[a, 0]
@@ -188,8 +172,8 @@ def residual_stabilization_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, prm, b0
     # strong momentum residual; (∇ div v)_x = ∂xy v_y, (∇ div v)_y = ∂xy v_x on Q1
     conv0 = v0 * gv[0, 0] + v1 * gv[0, 1]
     conv1 = v0 * gv[1, 0] + v1 * gv[1, 1]
-    convo0 = vo0 * go00 + vo1 * go01
-    convo1 = vo0 * go10 + vo1 * go11
+    convo0 = vo0 * go[0, 0] + vo1 * go[0, 1]
+    convo1 = vo0 * go[1, 0] + vo1 * go[1, 1]
     r0 = (mc * (v0 - vo0) + th * (rho * conv0 - mu * sym * m1) + (1.0 - th) * (rho * convo0 - mu * sym * mo1)
           + dp0 - b0)
     r1 = (mc * (v1 - vo1) + th * (rho * conv1 - mu * sym * m0) + (1.0 - th) * (rho * convo1 - mu * sym * mo0)
@@ -207,14 +191,14 @@ def residual_stabilization_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, prm, b0
 
 
 @njit(cache=True)
-def cell_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, prm, b0, b1, sp, out):
+def cell_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, go, prm, b0, b1, sp, out):
     """Integrand of the fluid cell terms at one point: the Galerkin terms (22)
     (:func:`galerkin_density`) plus, for ``scheme = "residual"``, the residual-based
     stabilisation (:func:`residual_stabilization_density`). One definition for the cell
     integrals and the shape derivative of the cut. Returns the velocity and pressure."""
-    v0, v1, p = galerkin_density(N, dNx, Ve, Voe, Pe, gv, prm, b0, b1, out)
+    v0, v1, vo0, vo1, p = galerkin_density(N, dNx, Ve, Voe, Pe, gv, go, prm, b0, b1, out)
     if prm[P_RESIDUAL] != 0.0:
-        residual_stabilization_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, prm, b0, b1, sp, out)
+        residual_stabilization_density(dNx, hx, hy, v0, v1, vo0, vo1, Ve, Voe, Pe, Vbe, gv, go, prm, b0, b1, sp, out)
     return v0, v1, p
 
 
@@ -245,6 +229,7 @@ def assemble_fluid_cells(xs, ys, nx, gcells, cell_ids, qptr, qx, qw, bq, V, P, V
     Vbe = np.empty((4, 2))
     Pe = np.empty(4)
     gv = np.empty((2, 2))
+    go = np.empty((2, 2))
     dens = np.empty(12)
     sp = np.zeros(4)
     dR = np.empty((2, 12))  # derivative of the strong momentum residual by the 12 cell unknowns
@@ -272,7 +257,7 @@ def assemble_fluid_cells(xs, ys, nx, gcells, cell_ids, qptr, qx, qw, bq, V, P, V
                 dNx[a, 0] = dN[a, 0] * 2.0 / hx
                 dNx[a, 1] = dN[a, 1] * 2.0 / hy
             w = qw[q]
-            v0, v1, p = cell_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, prm, bq[q, 0], bq[q, 1], sp, dens)
+            v0, v1, p = cell_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, go, prm, bq[q, 0], bq[q, 1], sp, dens)
             for a in range(12):
                 Re[a] += w * dens[a]
             if want_matrix and residual:
