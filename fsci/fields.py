@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fsci.assembly import Assembly
+from fsci.cut.transfer import carry_values, transfer_indices
 from fsci.errors import InputError
 from fsci.fem.quadrature import gauss_quad
 from fsci.mesh.grid import Grid
@@ -252,7 +253,9 @@ class SolidField:
 
 
 class FluidField:
-    """Velocity/pressure on the background grid; ACTIVE nodes carry dofs."""
+    """Velocity/pressure on the virtual nodes of the background grid (one per node and fluid
+    piece, :class:`fsci.cut.state.CutState`; the first ``n_nodes`` are the grid nodes); ACTIVE
+    virtual nodes carry dofs."""
 
     def __init__(self, fluid: Fluid) -> None:
         self.spec = fluid
@@ -269,6 +272,8 @@ class FluidField:
         self.Vbar = np.zeros((n, 2))  # frozen velocity of the stabilisation scalings
         self.active = np.ones(n, dtype=bool)
         self.gnode = np.full(n, -1, dtype=np.int64)
+        self.vnode_node = np.arange(n, dtype=np.int64)  # background node of each virtual node
+        self.vnode_rep = g.nodes.astype(float)  # a point of its fluid (matches unknowns across cuts)
         st = fluid.stabilization
         self.stab = (st.gamma_u, st.gamma_p, st.gamma_div, st.gamma_gp, st.gamma_gp_t)
         self._dirichlet = []
@@ -284,10 +289,15 @@ class FluidField:
         self.cut = None
 
     # ----------------------------------------------------------------- geometry
-    def set_cut(self, cut) -> None:
-        """Take integration cells, quadrature, faces and the ACTIVE set from a CutState."""
+    def set_cut(self, cut, extend: bool = True) -> bool:
+        """Take integration parts, quadrature, faces and the ACTIVE virtual nodes from a
+        CutState and carry the state over to its virtual nodes (a node's unknowns of a piece
+        from those of the nearest piece of the previous cut at that node; newly ACTIVE nodes,
+        if ``extend``, from their neighbours, paper Sec. 3.4.3). Returns True if the ACTIVE
+        virtual nodes changed (the dof layout must then be rebuilt)."""
         self.cut = cut
         self.int_cells = cut.int_cells
+        self.int_conn = cut.int_conn
         self.qptr = cut.qptr
         self.qx = cut.qx
         self.qw = cut.qw
@@ -298,11 +308,39 @@ class FluidField:
             keep &= ~cut.ghost
         self.faces = cut.faces[keep]
         self.ghost = cut.ghost[keep]
-        self.face_nodes = fk.face_nodes(self.grid.cells, self.faces)
+        self.face_nodes = cut.face_vnodes[keep]
+        n = self.grid.n_nodes
+        single = cut.n_vnodes == n and len(self.active) == n
+        same = (cut.n_vnodes == len(self.active) and np.array_equal(cut.active, self.active)
+                and np.array_equal(cut.vnode_node, self.vnode_node))
+        if single and (same or not extend):
+            changed = not same
+            self.active = cut.active.copy()
+            return changed
+        src = transfer_indices(self.vnode_node, self.vnode_rep, self.active, cut.vnode_node, cut.vnode_rep, n)
+        for name in ("V", "P", "Vn", "Pn", "Vbar"):
+            setattr(self, name, carry_values(self.grid, getattr(self, name), src, cut.vnode_node, cut.active, extend))
+        self.vnode_node = cut.vnode_node
+        self.vnode_rep = cut.vnode_rep
         self.active = cut.active.copy()
+        return not same
+
+    @property
+    def node_active(self) -> np.ndarray:
+        """ACTIVE background nodes (those with at least one ACTIVE set of unknowns)."""
+        return self.active[:self.grid.n_nodes]
+
+    def vnodes_of(self, nodes: np.ndarray) -> np.ndarray:
+        """The ACTIVE virtual nodes of background nodes ``nodes``."""
+        nodes = np.asarray(nodes, dtype=np.int64)
+        n = self.grid.n_nodes
+        v = nodes[self.active[nodes]]
+        if len(self.vnode_node) > n:
+            v = np.concatenate([v, n + np.nonzero(np.isin(self.vnode_node[n:], nodes))[0]])
+        return v
 
     def blocks(self) -> list[np.ndarray]:
-        return [self.gnode[self.grid.cells[self.int_cells]], self.gnode[self.face_nodes]]
+        return [self.gnode[self.int_conn], self.gnode[self.face_nodes]]
 
     def evaluate(self, points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Velocity ``(k, 2)`` and pressure at points inside given background cells."""
@@ -311,7 +349,7 @@ class FluidField:
         g = self.grid
         x0 = np.column_stack([g.xs[g.cell_ij[cells, 0]], g.ys[g.cell_ij[cells, 1]]])
         N, _ = q1_eval(2.0 * (points - x0) / g.cell_size[cells] - 1.0)
-        nodes = g.cells[cells]
+        nodes = self.cut.conn_at(cells, points) if self.cut is not None else g.cells[cells]
         return np.einsum("ka,kad->kd", N, self.V[nodes]), np.einsum("ka,ka->k", N, self.P[nodes])
 
     def physical_polygons(self) -> tuple[list[np.ndarray], np.ndarray]:
@@ -356,18 +394,19 @@ class FluidField:
     def speed_polygons(self) -> tuple[list[np.ndarray], np.ndarray]:
         polys, parents = self.physical_polygons()
         speed = np.linalg.norm(self.V, axis=1)
-        return polys, speed[self.grid.cells[parents]].mean(axis=1)
+        inner = np.array([p.mean(axis=0) for p in polys]).reshape(-1, 2)
+        return polys, speed[self.cut.conn_at(parents, inner)].mean(axis=1)
 
     # ----------------------------------------------------------------- data
     def dirichlet_values(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Background nodes, components (0, 1 velocity) and values at time ``t`` (active only)."""
+        """ACTIVE virtual nodes, components (0, 1 velocity) and values at time ``t``."""
         nodes, comps, vals = [], [], []
-        X = self.grid.nodes
         for nd, c, expr, fn in self._dirichlet:
-            nd = nd[self.active[nd]]
-            nodes.append(nd)
-            comps.append(np.full(len(nd), c))
-            vals.append(expr(X[nd, 0], X[nd, 1], t) * fn(t))
+            v = self.vnodes_of(nd)
+            X = self.grid.nodes[self.vnode_node[v]]
+            nodes.append(v)
+            comps.append(np.full(len(v), c))
+            vals.append(expr(X[:, 0], X[:, 1], t) * fn(t))
         if not nodes:
             e = np.zeros(0, dtype=np.int64)
             return e, e, np.zeros(0)
@@ -386,16 +425,25 @@ class FluidField:
                 return False
         return True
 
-    def pressure_pin(self) -> int | None:
-        """Background node whose pressure is fixed to 0, or ``None`` if pressure is determined."""
+    def pressure_pin(self) -> np.ndarray:
+        """Virtual nodes whose pressure is fixed to 0 (none if the pressure is determined): the
+        one nearest the reference point if given, else the first; with separate unknowns per
+        fluid part one in each fluid piece (nothing else fixes a piece's pressure level)."""
         if not self.needs_pressure_pin():
-            return None
+            return np.zeros(0, dtype=np.int64)
         ref = self.spec.pressure_reference
         act = np.nonzero(self.active)[0]
-        if ref is None:
-            return int(act[0])
-        d = np.linalg.norm(self.grid.nodes[act] - ref[None, :], axis=1)
-        return int(act[np.argmin(d)])
+        separate = self.cut is not None and self.cut.separate_parts
+        piece = np.maximum(self.cut.vnode_piece[act], 0) if separate else np.zeros(len(act), np.int64)
+        pins = []
+        for k in np.unique(piece):
+            mine = act[piece == k]
+            if ref is None:
+                pins.append(int(mine[0]))
+            else:
+                d = np.linalg.norm(self.grid.nodes[self.vnode_node[mine]] - ref[None, :], axis=1)
+                pins.append(int(mine[np.argmin(d)]))
+        return np.array(pins, dtype=np.int64)
 
     def body_force_density(self, ctx: StepContext) -> np.ndarray:
         """rho * b at the quadrature points, time-weighted, ``(nq, 2)``."""
@@ -425,12 +473,12 @@ class FluidField:
         g = self.grid
         tgt = asm.target()
         body_force_q = self.body_force_density(ctx)
-        conn = self.gnode[g.cells[self.int_cells]]
+        conn = self.gnode[self.int_conn]
         Vo = self.Vn if not ctx.static else self.V
-        fk.assemble_fluid_cells(g.xs, g.ys, g.nx, g.cells, self.int_cells, self.qptr, self.qx, self.qw,
+        fk.assemble_fluid_cells(g.xs, g.ys, g.nx, self.int_conn, self.int_cells, self.qptr, self.qx, self.qw,
                                 body_force_q, self.V, self.P, Vo, self.Vbar, self.cell_parameters(ctx), self.gnode,
                                 asm.positions(conn), *tgt)
-        fk.assemble_fluid_faces(g.xs, g.ys, g.nx, g.cells, self.faces, self.ghost.astype(np.bool_), self.Vbar, self.V, self.P,
+        fk.assemble_fluid_faces(g.xs, g.ys, g.nx, self.face_nodes, self.faces, self.ghost.astype(np.bool_), self.Vbar, self.V, self.P,
                                 self.face_parameters(ctx), self.gnode, asm.positions(self.gnode[self.face_nodes]),
                                 *tgt)
         self._assemble_neumann(asm, ctx)
@@ -446,7 +494,7 @@ class FluidField:
             if all(w == 0.0 or nm.function(t) * w == 0.0 for t, w in ((ctx.t_new, ctx.w_new), (ctx.t_old, ctx.w_old))):
                 continue  # no load at either level (e.g. before a ramp starts): it would add zeros
             edges_all = self.grid.side_edges(side)
-            k, s0, s1 = self.cut.boundary_pieces(side)
+            k, s0, s1, vn = self.cut.boundary_pieces(side)
             if len(k) == 0:
                 continue
             edges = edges_all[k]
@@ -468,7 +516,7 @@ class FluidField:
                         pv = nm.values[0](p[:, 0], p[:, 1], t) * f
                         traction -= pv[:, None] * normal[None, :]
                 wl = 0.5 * wg * length
-                for node, Nn in ((a, Na), (b, Nb)):
+                for node, Nn in ((vn[:, 0], Na), (vn[:, 1], Nb)):
                     dof = start[self.gnode[node]]
                     for c in range(2):
                         np.add.at(asm.rhs, dof + c, -(wl * Nn * traction[:, c]))

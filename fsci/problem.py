@@ -101,6 +101,7 @@ class InterfaceSettings:
     slip_h: float = 0.0  # distance h of the gap law (40); 0: the largest background cell side
     case_iii: str = "remark6"  # case III (Γ^FS in contact): "remark6" (35) or "original" (33)
     film_closure: float = 1e-6  # gaps between bodies below 2 × this × smallest cell are closed (not fluid)
+    unknowns: str = "per_node"  # fluid unknowns of a node: "per_node" (one set) or "per_fluid_part"
     shape_derivative: bool = True  # Jacobian includes the motion of Γ^FS (cut follows the iterates)
     extension: bool = True  # extend the FSI side into Γ^SC (§4.6); False: it is zero there (studies only)
 

@@ -768,6 +768,10 @@ INTERFACE = Table([
     Key("case_iii", Str(("remark6", "original")), "remark6",
         "fluid in contact (case III): paper Remark 6 variant (35) or the original (33)"),
     Key("film_closure", Num(0.0, 0.5), 1e-6, "films between bodies thinner than 2 × this × h are closed"),
+    Key("unknowns", Str(("per_node", "per_fluid_part")), "per_node",
+        "sets of fluid unknowns of a background node: one (the paper's; fluid on both sides of a body thinner than "
+        "a cell or of a shut valve shares it) or one per connected fluid part of the node's cells (those sides "
+        "are not coupled; where a gap closes, Newton may alternate between the two, docs/architecture.md)"),
     Key("extension", Bool(), True, "extend the fluid traction into the contact zone (paper §4.6)"),
     Key("shape_derivative", Bool(), True, "linearise the motion of the cut in Newton"),
 ], "[fluid.interface]", "Fluid-structure coupling by Nitsche's method and the cut.")

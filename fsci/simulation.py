@@ -172,7 +172,7 @@ class Simulation:
                 self.checkpoint()
             if cuts > p.solver.max_step_cuts or new_dt < p.solver.dt_min:
                 if self.system.fluid is not None and self.system.solids:
-                    self.system.update_cut(keep_nodes=self.system.fluid.active)  # consistent outputs
+                    self.system.update_cut(keep_nodes=self.system.fluid.node_active)  # consistent outputs
                 raise SolverError(f"step {self.step + 1} at t = {self.t:.6g} failed after {cuts - 1} step cuts "
                                   f"(dt = {dt:.4g}): {rep.reason}")
             dt = new_dt

@@ -16,8 +16,7 @@ import warnings
 from fsci.assembly import Assembly, ResidualAssembly
 from fsci.coupling import CouplingTerm
 from fsci.cut.state import CutState
-from fsci.cut.transfer import extend_to_new_nodes
-from fsci.errors import GeometryError, InputError
+from fsci.errors import GeometryError, InputError, SolverError
 from fsci.fem.sparse import DofLayout, PatternCache
 from fsci.fields import FluidField, SolidField, StepContext
 from fsci.geometry.outlines import Outline, body_polygon, check_in_box, warn_if_thin
@@ -84,10 +83,11 @@ class System:
         t0 = time.perf_counter()
         outlines = self.outlines()
         st = f.spec.interface
-        cut = CutState(f.grid, outlines, st.island_factor, keep_nodes=keep_nodes, film_closure=st.film_closure)
+        cut = CutState(f.grid, outlines, st.island_factor, keep_nodes=keep_nodes, film_closure=st.film_closure,
+                       separate_parts=st.unknowns == "per_fluid_part")
         self.timings["cut"] += time.perf_counter() - t0
         self.counts["cut"] += 1
-        if initial:
+        if initial and st.unknowns == "per_node":  # thin bodies share nodes only with one set per node
             g = f.grid
             for o in outlines:
                 h = float(np.max(np.hypot(*g.cell_size[g.locate(o.x)].T))) / np.sqrt(2.0)
@@ -96,16 +96,10 @@ class System:
                     return float(np.hypot(*g.cell_size[g.locate(np.array([[x, y]]))[0]])) / np.sqrt(2.0)
 
                 warn_if_thin(o, h, g.box, cell_h)
-        old = f.active.copy()
-        f.set_cut(cut)
+        changed = f.set_cut(cut, extend=not initial)
         self.cut = cut
         self._u_at_cut = [s.U.copy() for s in self.solids]
-        changed = not np.array_equal(old, f.active)
         if changed and not initial:
-            new = f.active & ~old
-            if new.any():
-                for arr in (f.V, f.P, f.Vn, f.Pn, f.Vbar):
-                    extend_to_new_nodes(f.grid, arr, old, f.active)
             self.build_layout()
         return changed
 
@@ -166,10 +160,18 @@ class System:
             return False
         grow_only = it > st.grow_only_after or self.layout_changes >= st.max_layout_changes
         keep = self._step_active if grow_only else None
+        pieces = len(self.cut.pieces)
         changed = self.update_cut(keep_nodes=keep)
         if changed:
             self.layout_changes += 1
-            self._step_active |= self.fluid.active
+            self._step_active |= self.fluid.node_active
+        if self.cut.separate_parts and len(self.cut.pieces) != pieces:
+            # a gap that closes in one iterate and opens by a fraction of a cell in the next:
+            # the unknowns split and merge in turn and Newton cycles; a smaller step starts
+            # closer to the event
+            self.piece_changes += 1
+            if self.piece_changes > st.max_layout_changes:
+                raise SolverError(f"the fluid split and merged again {self.piece_changes} times in this step")
         return changed
 
     # ----------------------------------------------------------------- layout
@@ -187,7 +189,7 @@ class System:
         if self.fluid is not None:
             f = self.fluid
             act = np.nonzero(f.active)[0]
-            f.gnode = np.full(f.grid.n_nodes, -1, dtype=np.int64)
+            f.gnode = np.full(len(f.active), -1, dtype=np.int64)
             f.gnode[act] = offset + np.arange(len(act), dtype=np.int64)
             offset += len(act)
             ndof.append(np.full(len(act), 3))
@@ -273,10 +275,9 @@ class System:
             nodes, comps, v = f.dirichlet_values(t)
             dofs.append(st[f.gnode[nodes]] + comps)
             vals.append(v)
-            pin = f.pressure_pin()
-            if pin is not None:
-                dofs.append(np.array([st[f.gnode[pin]] + 2]))
-                vals.append(np.zeros(1))
+            pins = f.pressure_pin()
+            dofs.append(st[f.gnode[pins]] + 2)
+            vals.append(np.zeros(len(pins)))
         if not dofs:
             return np.zeros(0, dtype=np.int64), np.zeros(0)
         d = np.concatenate(dofs).astype(np.int64)
@@ -299,7 +300,8 @@ class System:
         if self.fluid is not None and self.solids:
             self.update_cut()
             self.layout_changes = 0
-            self._step_active = self.fluid.active.copy()
+            self.piece_changes = 0
+            self._step_active = self.fluid.node_active.copy()
         self.stab_change = 0.0
         self.stab_scale = 0.0
         if self.fluid is not None:
@@ -341,6 +343,9 @@ class System:
         return asm
 
 
+FLUID_STATE = ("V", "P", "Vn", "Pn", "Vbar", "active", "vnode_node", "vnode_rep")
+
+
 def snapshot(system: System) -> dict[str, np.ndarray]:
     """Copy of every state array of the system (for step retries and checkpoints)."""
     state: dict[str, np.ndarray] = {}
@@ -349,7 +354,7 @@ def snapshot(system: System) -> dict[str, np.ndarray]:
             state[f"solid{s.index}.{k}"] = getattr(s, k).copy()
     if system.fluid is not None:
         f = system.fluid
-        for k in ("V", "P", "Vn", "Pn", "Vbar", "active"):
+        for k in FLUID_STATE:
             state[f"fluid.{k}"] = getattr(f, k).copy()
     return state
 
@@ -363,7 +368,9 @@ def restore(system: System, state: dict[str, np.ndarray]) -> None:
     if system.fluid is not None:
         f = system.fluid
         old_active = f.active.copy()
-        for k in ("V", "P", "Vn", "Pn", "Vbar", "active"):
-            setattr(f, k, state[f"fluid.{k}"].copy())
+        n = f.grid.n_nodes
+        for k in FLUID_STATE:
+            default = {"vnode_node": np.arange(n), "vnode_rep": f.grid.nodes}.get(k)  # written before virtual nodes
+            setattr(f, k, state.get(f"fluid.{k}", default).copy())
         if not np.array_equal(old_active, f.active):
             system.build_layout()

@@ -8,7 +8,7 @@ piece knows, once, everything the traction kernel (:mod:`fsci.coupling.traction`
   bodies' outlines (from the cut, :class:`fsci.cut.state.CutState`) and where the opposite
   contact surface's nodes project onto it (paper Remark 9); the projected ends are kept
   symbolic so that they move with the unknowns;
-* the fluid cell its fluid quantities are taken from and whether it bounds the physical fluid
+* the fluid part (cell and fluid piece) its fluid quantities are taken from and whether it bounds the physical fluid
   (Γ^FS) or not (Γ^SC, Sec. 3.1.3);
 * the opposite surface segment seen along its normal within the search cut-off (contact
   search, paper (10)); without one, ``g_n = ∞``;
@@ -41,13 +41,13 @@ class CouplingPieces:
     d1: np.ndarray  # 2/3 on the grid line x = c / y = c (fsci.cut.state.END_X, END_Y)
     c0: np.ndarray  # grid-line coordinate of an end of kind 2/3
     c1: np.ndarray
-    cell: np.ndarray  # fluid cell of the piece (-1: none)
+    cell: np.ndarray  # fluid part of the piece: cell + n_cells × fluid piece (CutState.part_conn; -1: none)
     fs: np.ndarray  # bounds the physical fluid (Γ^FS)
     opp_body: np.ndarray  # body of the opposite segment (-1: none, g_n = ∞)
     opp_edge: np.ndarray  # its index in the opposite body's coupling edges
     ext_edge: np.ndarray  # extension point: edge of the same body (-1: none)
     ext_s: np.ndarray  # and its parameter on that edge
-    ext_cell: np.ndarray  # fluid cell on the fluid side of the extension point
+    ext_cell: np.ndarray  # fluid part on the fluid side of the extension point
 
     def __len__(self) -> int:
         return len(self.body)
@@ -73,7 +73,7 @@ def _base_pieces(boundaries: list[BoundaryOf], cut) -> list[tuple[np.ndarray, ..
             seg = cut.segments
             m = (seg.body == b) & seg.inside
             out.append((seg.edge[m], seg.s0[m], seg.s1[m], seg.kind0[m], seg.line0[m], seg.kind1[m], seg.line1[m],
-                        seg.cell[m], seg.fs[m]))
+                        seg.part[m], seg.fs[m]))
         else:
             e = bd.contact
             fixed = np.full(len(e), -1, np.int64)

@@ -32,6 +32,7 @@ import numpy as np
 from fsci.assembly import Assembly, ResidualAssembly
 from fsci.coupling import traction as tk
 from fsci.coupling.points import BoundaryOf, CouplingPieces, build_pieces
+from fsci.cut.transfer import transfer_indices
 from fsci.errors import InputError
 from fsci.expressions import Expression
 from fsci.fem.quadrature import gauss_line, gauss_quad
@@ -229,7 +230,7 @@ class CouplingTerm:
         if f is not None and ctx.static:
             sel = np.nonzero(self.pieces(system).fs)[0]
             Vo = np.zeros_like(d["Vo"])
-            Vo[sel] = f.V[f.grid.cells[self.pieces(system).cell[sel]]]
+            Vo[sel] = f.V[system.cut.part_conn(self.pieces(system).cell[sel])]
             d["Vo"] = Vo
         return d
 
@@ -286,11 +287,11 @@ class CouplingTerm:
     def _gather_static(self, system, ctx: StepContext, level: str) -> dict:
         """Everything of :meth:`gather` that does not change within a step's Newton iterations on
         one set of pieces, plus ``zidx``: for every local unknown its index into the flat state
-        ``[U of each body, (v_x, v_y, p) of each background node, 0]`` (absent: the final 0)."""
+        ``[U of each body, (v_x, v_y, p) of each virtual fluid node, 0]`` (absent: the final 0)."""
         pc = self.pieces(system)
         K = len(pc)
         f = system.fluid
-        zero = sum(2 * s.n for s in system.solids) + (3 * f.grid.n_nodes if f is not None else 0)
+        zero = sum(2 * s.n for s in system.solids) + (3 * len(f.V) if f is not None else 0)
         zidx = np.full((K, tk.N_LOCAL), zero, dtype=np.int64)
         base = np.concatenate([[0], np.cumsum([2 * s.n for s in system.solids])]).astype(np.int64)
         fbase = int(base[-1])
@@ -387,10 +388,11 @@ class CouplingTerm:
             fp[:, tk.F_SLIPH] = self.slip_h
             three = np.arange(3)
 
-            def cell_data(sel: np.ndarray, cells: np.ndarray, slot: int, off: int,
+            def cell_data(sel: np.ndarray, parts: np.ndarray, slot: int, off: int,
                           cols: tuple[int, int, int, int]) -> tuple[np.ndarray, np.ndarray]:
-                """Fluid slots, cell geometry and γ^F of the pieces ``sel`` in ``cells``."""
-                nodes = g.cells[cells]
+                """Fluid slots, cell geometry and γ^F of the pieces ``sel`` in fluid ``parts``."""
+                nodes = system.cut.part_conn(parts)
+                cells = parts % g.n_cells
                 conn[sel, slot:slot + 4] = f.gnode[nodes]
                 zidx[sel, off:off + 12] = (fbase + 3 * nodes[:, :, None] + three).reshape(-1, 12)
                 hx, hy = g.cell_size[cells, 0], g.cell_size[cells, 1]
@@ -411,8 +413,8 @@ class CouplingTerm:
                 fp[sel, tk.F_GAM] = gam
                 fp[sel, tk.F_AT] = hk / (st.gamma_t * st.trace_constant)
                 if not ctx.static:
-                    Vo[sel] = f.Vn[g.cells[pc.cell[sel]]]
-                Vb[sel] = f.Vbar[g.cells[pc.cell[sel]]]
+                    Vo[sel] = f.Vn[system.cut.part_conn(pc.cell[sel])]
+                Vb[sel] = f.Vbar[system.cut.part_conn(pc.cell[sel])]
                 moving |= f.spec.body_force is not None
             sel = np.nonzero(has_ext)[0]
             if len(sel):
@@ -476,10 +478,11 @@ class CouplingTerm:
                for i, s in enumerate(system.solids) if s.has_dofs}  # prescribed bodies have no rows
         if system.fluid is not None:
             f = system.fluid
-            arr = np.zeros((f.grid.n_nodes, 3))
+            arr = np.zeros((len(f.active), 3))
             act = np.nonzero(f.active)[0]
             arr[act] = asm.rhs[st[f.gnode[act]][:, None] + np.arange(3)]
             old["fluid"] = arr
+            old["fluid_nodes"] = (f.vnode_node, f.vnode_rep, f.active.copy())
         self._old = old
 
     def assemble(self, system, asm: Assembly, ctx: StepContext) -> None:
@@ -497,6 +500,11 @@ class CouplingTerm:
                     asm.rhs[st[s.gnode][:, None] + np.arange(2)] += c * self._old[f"solid{i}"]
             if system.fluid is not None:
                 f = system.fluid
+                node, rep_pt, was_active = self._old["fluid_nodes"]
+                if node is not f.vnode_node:  # another cut's virtual nodes: carry the rows over
+                    src = transfer_indices(node, rep_pt, was_active, f.vnode_node, f.vnode_rep, f.grid.n_nodes)
+                    self._old["fluid"] = np.where((src >= 0)[:, None], self._old["fluid"][np.maximum(src, 0)], 0.0)
+                    self._old["fluid_nodes"] = (f.vnode_node, f.vnode_rep, f.active.copy())
                 act = np.nonzero(f.active)[0]
                 asm.rhs[st[f.gnode[act]][:, None] + np.arange(3)] += c * self._old["fluid"][act]
 

@@ -4,7 +4,11 @@ One :class:`CutState` per geometry holds everything the fluid and coupling terms
 
 * cell states: ``FLUID`` (uncut, standard Gauss), ``CUT`` (integrated on its PHYSICAL part),
   ``SOLID`` (not integrated);
-* ACTIVE nodes (one dof set per node) and the cells whose faces carry CIP / ghost penalty;
+* the connected fluid *pieces* (largest first) and the fluid unknowns: one set per background
+  node and fluid piece in the node's cells (*virtual nodes*; a node beside a body that separates
+  two pieces, e.g. a shut valve, carries one set for each side, so that no cell couples the
+  pieces and each piece keeps its own mass balance (46)); ACTIVE virtual nodes and the faces
+  that carry CIP / ghost penalty, each face within one piece;
 * volume quadrature on the physical part of cut cells: the fluid polygon of the cell is
   triangulated (constrained Delaunay, GEOS) and integrated with a collapsed Gauss rule exact
   for total degree ``quad_degree`` (5 by default: every Galerkin integrand of (22) on a
@@ -47,6 +51,7 @@ class Segments:
     s0: np.ndarray  # local coordinate range on the edge, 0 at node a, 1 at node b
     s1: np.ndarray
     cell: np.ndarray  # background cell evaluated for fluid quantities
+    part: np.ndarray  # fluid part (cell + n_cells × fluid piece, CutState.part_conn) of that cell
     fs: np.ndarray  # True: bounds the physical fluid (Γ^FS); False: Γ^SC
     kind0: np.ndarray  # kind of each end (END_FIXED, END_X, END_Y) and its grid-line coordinate
     line0: np.ndarray
@@ -206,18 +211,24 @@ class CutState:
     film_closure
         Gaps between two different bodies thinner than ``2 film_closure × (smallest cell)`` are
         not fluid (closed contact whose discrete gap is slightly positive; see docs).
+    separate_parts
+        One set of fluid unknowns per connected fluid part of a node's cells (False: one per
+        node, the paper's; see :meth:`_build_active`).
     """
 
     def __init__(self, grid: Grid, outlines: list[Outline], island_factor: float = 2.0, quad_degree: int = 5,
-                 keep_nodes: np.ndarray | None = None, film_closure: float = 0.0) -> None:
+                 keep_nodes: np.ndarray | None = None, film_closure: float = 0.0,
+                 separate_parts: bool = False) -> None:
         self.grid = grid
         self.outlines = outlines
         self.island_factor = island_factor
         self.film_closure = film_closure
+        self.separate_parts = separate_parts
         self.quad_degree = quad_degree
         x0, x1, y0, y1 = grid.box
         self.box = shapely.box(x0, y0, x1, y1)
         self._build_region()
+        self._tree = shapely.STRtree(self.pieces) if len(self.pieces) > 1 else None
         self._classify_cells()
         self._build_quadrature()
         self._build_segments()
@@ -241,6 +252,10 @@ class CutState:
             h = float(diag[cells].max())
             (islands if size < self.island_factor * h else keep).append(part)
         self.fluid = shapely.union_all(keep) if keep else shapely.Polygon()
+        # connected pieces, largest first (two pieces touching in a point are two pieces)
+        self.pieces = sorted(shapely.get_parts(self.fluid), key=lambda q: -q.area) if keep else []
+        if len(self.pieces) > 1:
+            shapely.prepare(self.pieces)
         self.islands = islands
         shapely.prepare(self.fluid)
 
@@ -302,8 +317,40 @@ class CutState:
                 self.polygons[int(c)] = p
         self.state = state
 
+    def piece_of(self, points: np.ndarray) -> np.ndarray:
+        """Label of the fluid piece containing each point (the nearest piece for a point
+        outside the fluid, e.g. on an interface up to round-off); zeros for one piece."""
+        lab = np.zeros(len(points), dtype=np.int64)
+        if self._tree is None or len(points) == 0:
+            return lab
+        todo = np.arange(len(points))
+        for k, q in enumerate(self.pieces):  # prepared point-in-polygon, largest piece first
+            if len(todo) == 0:
+                break
+            inside = shapely.contains_xy(q, points[todo, 0], points[todo, 1])
+            lab[todo[inside]] = k
+            todo = todo[~inside]
+        if len(todo):
+            i, near = self._tree.query_nearest(shapely.points(points[todo]), all_matches=False)
+            lab[todo[i]] = near
+        return lab
+
+    def local_part(self, cells: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """Index of the fluid part of its cell containing each point (the nearest part for a
+        point on or off its boundary); 0 in a cell of one part."""
+        out = np.zeros(len(cells), dtype=np.int64)
+        if not self.split_cells:
+            return out
+        for k in np.nonzero(np.isin(cells, list(self.split_cells)))[0]:
+            parts = self.split_cells[int(cells[k])]
+            pt = shapely.points(points[k])
+            out[k] = int(np.argmin(shapely.distance(parts, pt)))
+        return out
+
     def _build_quadrature(self) -> None:
-        """Tensor Gauss on FLUID cells, triangle rules on the PHYSICAL part of CUT cells."""
+        """Tensor Gauss on FLUID cells, triangle rules on the PHYSICAL part of CUT cells; one
+        integration part per connected fluid part of a cell, numbered ``cell + n_cells × k``
+        (k-th polygon of the cell's fluid; k = 0 in a cell of one part)."""
         g = self.grid
         fluid_cells = np.nonzero(self.state == FLUID)[0]
         xi, w = gauss_quad(2)
@@ -311,6 +358,10 @@ class CutState:
         x0 = np.column_stack([g.xs[g.cell_ij[fluid_cells, 0]], g.ys[g.cell_ij[fluid_cells, 1]]])
         pts_f = (x0[:, None, :] + 0.5 * (xi[None] + 1.0) * size[:, None, :])
         wts_f = w[None, :] * (0.25 * size[:, 0] * size[:, 1])[:, None]
+        part_f = fluid_cells
+        # cells whose fluid is several polygons (a body thinner than the cell through it, a shut valve)
+        self.split_cells = {c: np.array(shapely.get_parts(p)) for c, p in self.polygons.items()
+                            if shapely.get_num_geometries(p) > 1} if self.separate_parts else {}
         cut_cells = np.array(sorted(self.polygons), dtype=np.int64)
         pts_c, wts_c, owner_c = np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=np.int64)
         if len(cut_cells):
@@ -323,14 +374,17 @@ class CutState:
             first = np.searchsorted(ring, np.arange(len(parts)))
             verts = xy[first[:, None] + np.arange(3)[None, :]].reshape(-1, 3, 2)
             pts_c, wts_c = triangle_rule(verts, self.quad_degree)
-            owner_c = np.repeat(cut_cells[which], len(wts_c) // max(len(parts), 1))
+            cell_t = cut_cells[which]
+            part_t = cell_t + g.n_cells * self.local_part(cell_t, verts.mean(axis=1))
+            owner_c = np.repeat(part_t, len(wts_c) // max(len(parts), 1))
         pts = np.vstack([pts_f.reshape(-1, 2), pts_c])
         wts = np.concatenate([wts_f.ravel(), wts_c])
-        owner = np.concatenate([np.repeat(fluid_cells, 4), owner_c])
+        owner = np.concatenate([np.repeat(part_f, 4), owner_c])
         order = np.argsort(owner, kind="stable")
         owner = owner[order]
-        self.int_cells, counts = np.unique(owner, return_counts=True)
-        self.int_cells = self.int_cells.astype(np.int64)
+        self.int_parts, counts = np.unique(owner, return_counts=True)
+        self.int_parts = self.int_parts.astype(np.int64)
+        self.int_cells = self.int_parts % g.n_cells
         self.qptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
         self.qx = np.ascontiguousarray(pts[order])
         self.qw = np.ascontiguousarray(wts[order])
@@ -414,7 +468,7 @@ class CutState:
             rows.append((np.full(len(i0), b), E[i0], S[i0], S[i0 + 1], Kd[i0], Ln[i0], Kd[i0 + 1], Ln[i0 + 1]))
         if not rows:
             z, f = np.zeros(0, dtype=np.int64), np.zeros(0)
-            self.segments = Segments(z, z, f, f, z, np.zeros(0, bool), z, f, z, f, np.zeros(0, bool))
+            self.segments = Segments(z, z, f, f, z, z, np.zeros(0, bool), z, f, z, f, np.zeros(0, bool))
             return
         body = np.concatenate([r[0] for r in rows]).astype(np.int64)
         edge = np.concatenate([r[1] for r in rows]).astype(np.int64)
@@ -456,30 +510,292 @@ class CutState:
         # faces into the box: not outside it, nor lying on a box side with the box behind it
         x0, x1, y0, y1 = g.box
         inside = (probe[:, 0] > x0) & (probe[:, 0] < x1) & (probe[:, 1] > y0) & (probe[:, 1] < y1)
-        self.segments = Segments(body, edge, s0, s1, cell.astype(np.int64), fs.astype(bool), ends[0].astype(np.int64),
+        cell = cell.astype(np.int64)
+        part = cell.copy()
+        part[fs] += g.n_cells * self.local_part(cell[fs], probe[fs])  # the part on the wetted side
+        self.segments = Segments(body, edge, s0, s1, cell, part, fs.astype(bool), ends[0].astype(np.int64),
                                  ends[1], ends[2].astype(np.int64), ends[3], inside)
 
     # ----------------------------------------------------------------- active set and faces
     def _build_active(self, keep_nodes: np.ndarray | None) -> None:
+        """ACTIVE nodes, virtual nodes (sets of unknowns) and the faces that carry CIP / ghost
+        penalty.
+
+        A background node carries one set of unknowns for each connected part of the fluid in
+        its (up to four) cells, connected meaning: within a cell, or across a cell side where
+        the fluid parts on both sides share a piece of that side (4C's nodal dof sets, which the
+        paper leaves out, Ager, Seitz & Wall 2019, Sec. 3.4.3: "appropriate as long as no
+        slender solid bodies are considered"). Fluid on both sides of a body thinner than a
+        cell, or of a shut valve, is then not coupled through shared unknowns. Virtual node
+        ``n < n_nodes`` is node ``n`` itself (its first set); further sets are numbered from
+        ``n_nodes`` on.
+        """
         g = self.grid
+        n = g.n_nodes
         physical = self.state != SOLID
-        active = np.zeros(g.n_nodes, dtype=bool)
+        active = np.zeros(n, dtype=bool)
         active[g.cells[physical].ravel()] = True
         if keep_nodes is not None:
             active |= keep_nodes
-        self.active = active
+        self.node_active = active
         face_cell = np.all(active[g.cells], axis=1)
         self.face_cell = face_cell
         f = g.faces
         both = face_cell[f[:, 0]] & face_cell[f[:, 1]]
-        self.faces = np.ascontiguousarray(f[both])
+        faces = np.ascontiguousarray(f[both])
+        fnodes = face_nodes(g.cells, faces)
+        ghost = (self.state[faces[:, 0]] != FLUID) | (self.state[faces[:, 1]] != FLUID)
+        self.active = active
+        self.int_conn = g.cells[self.int_cells]
+        self.n_vnodes = n
+        self.vnode_node = np.arange(n, dtype=np.int64)
+        self.vnode_rep = g.nodes
+        self._vkey = np.zeros(0, dtype=np.int64)
+        self._vid = np.zeros(0, dtype=np.int64)
+        cand = self._nodes_with_separated_fluid() if self.separate_parts else np.zeros(0, dtype=np.int64)
+        if len(cand):
+            self._build_sets(cand)
+        self.vnode_piece = np.full(self.n_vnodes, -1, dtype=np.int64)  # the fluid piece of each set
+        if self.separate_parts and len(self.pieces) > 1:  # (read for the pressure pins)
+            w = np.add.reduceat(self.qw, self.qptr[:-1])
+            centre = np.column_stack([np.add.reduceat(self.qw * self.qx[:, d], self.qptr[:-1]) for d in range(2)])
+            self.vnode_piece[self.int_conn] = self.piece_of(centre / w[:, None])[:, None]
+        else:
+            self.vnode_piece[self.int_conn] = 0
+        if len(cand) == 0:
+            self.faces, self.ghost, self.face_vnodes = faces, ghost, fnodes
+            return
+        self.vnode_rep = self._representative_points()
+        self.faces, self.ghost, self.face_vnodes = self._faces_of_sets(faces, ghost, fnodes, cand)
+
+    def _part_geometry(self, cells: np.ndarray, local: np.ndarray) -> np.ndarray:
+        """Polygon of fluid part ``local`` of each cell (the whole cell for a FLUID cell)."""
+        g = self.grid
+        out = np.empty(len(cells), dtype=object)
+        ij = g.cell_ij[cells]
+        boxes = shapely.box(g.xs[ij[:, 0]], g.ys[ij[:, 1]], g.xs[ij[:, 0] + 1], g.ys[ij[:, 1] + 1])
+        for k, (c, m) in enumerate(zip(cells.tolist(), local.tolist())):
+            if c in self.split_cells:
+                out[k] = self.split_cells[c][m]
+            elif c in self.polygons:
+                out[k] = self.polygons[c]
+            else:
+                out[k] = boxes[k]
+        return out
+
+    def _side_links(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Fluid parts connected across a cell side next to a CUT cell: ``(code_a, code_b,
+        side)`` rows, ``side`` the grid edge ``(node, node)`` they share; and the cells of
+        sides between two PHYSICAL cells that no fluid crosses."""
+        g = self.grid
+        nx = g.nx
         st = self.state
-        self.ghost = (st[self.faces[:, 0]] != FLUID) | (st[self.faces[:, 1]] != FLUID)
+        phys = st != SOLID
+        cells = np.arange(g.n_cells)
+        i, j = g.cell_ij[:, 0], g.cell_ij[:, 1]
+        pairs = [np.column_stack([cells[i < nx - 1], cells[i < nx - 1] + 1]),
+                 np.column_stack([cells[j < g.ny - 1], cells[j < g.ny - 1] + nx])]
+        rows = []
+        for d, pr in enumerate(pairs):
+            keep = phys[pr[:, 0]] & phys[pr[:, 1]] & ((st[pr[:, 0]] == CUT) | (st[pr[:, 1]] == CUT))
+            pr = pr[keep]
+            # shared side: d = 0 the right side of the first cell (nodes 1, 2), d = 1 its top (3, 2)
+            side = g.cells[pr[:, 0]][:, [1, 2]] if d == 0 else g.cells[pr[:, 0]][:, [3, 2]]
+            rows.append((pr, side))
+        pr = np.vstack([r[0] for r in rows])
+        side = np.vstack([r[1] for r in rows])
+        count = lambda c: np.array([len(self.split_cells.get(int(x), (0,))) for x in c], dtype=np.int64)  # noqa: E731
+        na, nb = count(pr[:, 0]), count(pr[:, 1])
+        rep_pair = np.repeat(np.arange(len(pr)), na * nb)
+        offs = np.concatenate([[0], np.cumsum(na * nb)])[:-1]
+        flat = np.arange(len(rep_pair)) - offs[rep_pair]
+        la, lb = flat // nb[rep_pair], flat % nb[rep_pair]
+        ca, cb = pr[rep_pair, 0], pr[rep_pair, 1]
+        # two cells of one part each are linked if fluid lies at an end of their side (no body
+        # along it there); otherwise their parts are linked if they share a piece of the side
+        single = (na[rep_pair] == 1) & (nb[rep_pair] == 1)
+        s_nodes = side[rep_pair]
+        wet = shapely.contains_xy(self.fluid, g.nodes[s_nodes[:, 0], 0], g.nodes[s_nodes[:, 0], 1]) | \
+            shapely.contains_xy(self.fluid, g.nodes[s_nodes[:, 1], 0], g.nodes[s_nodes[:, 1], 1])
+        linked = single & wet
+        test = np.nonzero(~linked)[0]
+        hmin = float(min(np.diff(g.xs).min(), np.diff(g.ys).min()))
+        ga, gb = self._part_geometry(ca[test], la[test]), self._part_geometry(cb[test], lb[test])
+        linked[test] = shapely.length(shapely.intersection(ga, gb)) > 1e-9 * hmin
+        crossed = np.bincount(rep_pair[linked], minlength=len(pr)) > 0
+        n_cells = g.n_cells
+        return (ca[linked] + n_cells * la[linked], cb[linked] + n_cells * lb[linked], side[rep_pair[linked]],
+                pr[~crossed])
+
+    def _nodes_with_separated_fluid(self) -> np.ndarray:
+        """Nodes whose cells' fluid may be more than one connected part: the nodes of cells
+        with several fluid parts and of sides between two PHYSICAL cells that no fluid
+        crosses (a body along a grid line). Every other node has one set."""
+        g = self.grid
+        self._links = self._side_links()
+        closed = self._links[3]
+        split = np.array(sorted(self.split_cells), dtype=np.int64)
+        if len(split) == 0 and len(closed) == 0:
+            return np.zeros(0, dtype=np.int64)
+        return np.unique(np.concatenate([g.cells[split].ravel(), g.cells[closed.ravel()].ravel()]))
+
+    def _build_sets(self, cand: np.ndarray) -> None:
+        """Sets of unknowns of the nodes ``cand``: the connected components of the graph whose
+        vertices are (node, fluid part of one of its cells) and whose edges join two parts of
+        neighbouring cells linked across the side they share at that node."""
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+
+        g = self.grid
+        n = g.n_nodes
+        is_cand = np.zeros(n, dtype=bool)
+        is_cand[cand] = True
+        # vertices: (integration part k, corner a) with a candidate node
+        k_all = np.repeat(np.arange(len(self.int_parts)), 4)
+        node_all = self.int_conn.ravel()
+        sel = is_cand[node_all]
+        vk, vnode = k_all[sel], node_all[sel]
+        vcode = self.int_parts[vk]
+        K = int(self.int_parts.max()) + 1
+        key = vnode * K + vcode
+        order = np.argsort(key)
+        key, vnode, vcode = key[order], vnode[order], vcode[order]
+        # edges: linked parts across a side, at each of the side's candidate end nodes
+        ca, cb, side, _ = self._links
+        # sides between two FLUID cells are crossed everywhere
+        st = self.state
+        nx = g.nx
+        cells = np.arange(g.n_cells)
+        i, j = g.cell_ij[:, 0], g.cell_ij[:, 1]
+        ff = []
+        for d, (ok, step, nodes) in enumerate(((i < nx - 1, 1, [1, 2]), (j < g.ny - 1, nx, [3, 2]))):
+            a = cells[ok]
+            b = a + step
+            m = (st[a] == FLUID) & (st[b] == FLUID) & np.any(is_cand[g.cells[a][:, nodes]], axis=1)
+            ff.append((a[m], b[m], g.cells[a[m]][:, nodes]))
+        ca = np.concatenate([ca] + [x[0] for x in ff])
+        cb = np.concatenate([cb] + [x[1] for x in ff])
+        side = np.vstack([side] + [x[2] for x in ff])
+        src, dst = [], []
+        for e in range(2):
+            u = side[:, e]
+            m = is_cand[u]
+            ia = np.searchsorted(key, u[m] * K + ca[m])
+            ib = np.searchsorted(key, u[m] * K + cb[m])
+            src.append(ia)
+            dst.append(ib)
+        src, dst = np.concatenate(src), np.concatenate(dst)
+        nv = len(key)
+        _, label = connected_components(coo_matrix((np.ones(len(src)), (src, dst)), shape=(nv, nv)), directed=False)
+        # one set per (node, component); the node's first component keeps the node's own number
+        comp_key = np.unique(vnode * nv + label)
+        comp_node = comp_key // nv
+        first = np.ones(len(comp_key), dtype=bool)
+        first[1:] = comp_node[1:] != comp_node[:-1]
+        vid_comp = comp_node.copy()
+        extra = np.nonzero(~first)[0]
+        vid_comp[extra] = n + np.arange(len(extra))
+        vid = vid_comp[np.searchsorted(comp_key, vnode * nv + label)]
+        self._vkey, self._vid, self._vk = key, vid, K
+        self.n_vnodes = n + len(extra)
+        self.vnode_node = np.concatenate([np.arange(n), comp_node[extra]]).astype(np.int64)
+        self.active = np.concatenate([self.node_active, np.ones(len(extra), dtype=bool)])
+        self.int_conn = self.vnodes(g.cells[self.int_cells], self.int_parts[:, None])
+
+    def vnodes(self, nodes: np.ndarray, parts: np.ndarray) -> np.ndarray:
+        """Virtual node of each (background node, fluid part ``cell + n_cells × k`` of one of
+        its cells); the node itself where it has one set."""
+        nodes = np.asarray(nodes, dtype=np.int64)
+        if len(self._vkey) == 0:
+            return nodes.copy()
+        k = nodes * self._vk + np.asarray(parts, dtype=np.int64)
+        i = np.minimum(np.searchsorted(self._vkey, k), len(self._vkey) - 1)
+        return np.where(self._vkey[i] == k, self._vid[i], nodes).astype(np.int64)
+
+    def part_conn(self, parts: np.ndarray) -> np.ndarray:
+        """Virtual nodes ``(k, 4)`` of fluid parts ``cell + n_cells × k``."""
+        g = self.grid
+        parts = np.asarray(parts, dtype=np.int64)
+        return self.vnodes(g.cells[parts % g.n_cells], parts[:, None])
+
+    def conn_at(self, cells: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """Virtual nodes ``(k, 4)`` that carry the fluid at points in the given cells."""
+        g = self.grid
+        cells = np.asarray(cells, dtype=np.int64)
+        if self.n_vnodes == g.n_nodes:
+            return g.cells[cells]
+        return self.part_conn(cells + g.n_cells * self.local_part(cells, points))
+
+    def _representative_points(self) -> np.ndarray:
+        """A point of each virtual node's fluid near the node (the mean of the centroids of
+        its integration parts; the node itself if it has none): matches the unknowns of one
+        cut to those of the next (:func:`fsci.cut.transfer.transfer_indices`)."""
+        g = self.grid
+        rep = g.nodes[self.vnode_node].astype(float)
+        if len(self.int_parts) == 0:
+            return rep
+        w = np.add.reduceat(self.qw, self.qptr[:-1])
+        c = np.column_stack([np.add.reduceat(self.qw * self.qx[:, d], self.qptr[:-1]) for d in range(2)]) / w[:, None]
+        v = self.int_conn.ravel()
+        cnt = np.bincount(v, minlength=self.n_vnodes).astype(float)
+        acc = np.column_stack([np.bincount(v, weights=np.repeat(c[:, d], 4), minlength=self.n_vnodes) for d in range(2)])
+        has = cnt > 0
+        rep[has] = acc[has] / cnt[has, None]
+        return rep
+
+    def _faces_of_sets(self, faces: np.ndarray, ghost: np.ndarray, fnodes: np.ndarray,
+                       cand: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Face entries where nodes have several sets: one per pair of fluid parts of the two
+        cells that use the same set at both nodes of the face (the same fluid on both sides);
+        a cell without fluid (a ghost-penalty neighbour) takes the single set of each of its
+        nodes and has no entry if a node has several."""
+        g = self.grid
+        n = g.n_nodes
+        is_cand = np.zeros(n, dtype=bool)
+        is_cand[cand] = True
+        simple = ~np.any(is_cand[fnodes], axis=1)
+        out_f, out_g, out_n = [faces[simple]], [ghost[simple]], [fnodes[simple]]
+        n_sets = np.bincount(self.vnode_node, minlength=n)
+        parts_of: dict[int, list[int]] = {}
+        for code, c in zip(self.int_parts.tolist(), self.int_cells.tolist()):
+            parts_of.setdefault(c, []).append(code)
+        rows_f, rows_g, rows_n = [], [], []
+        for k in np.nonzero(~simple)[0]:
+            cl, cr = int(faces[k, 0]), int(faces[k, 1])
+            nodes = fnodes[k]
+            shared, far = ([1, 2], [0, 3]) if faces[k, 2] == 0 else ([2, 3], [0, 1])  # in the left/lower cell
+            for pl in parts_of.get(cl, [-1]):
+                for pr in parts_of.get(cr, [-1]):
+                    if pl < 0 and pr < 0:
+                        continue
+                    conn = nodes.copy()
+                    if pl >= 0:
+                        conn[:4] = self.vnodes(nodes[:4], np.full(4, pl))
+                    elif np.any(n_sets[nodes[far]] > 1):  # a cell without fluid: its nodes' only sets
+                        continue
+                    if pr >= 0:
+                        right = self.vnodes(nodes[shared + [4, 5]], np.full(4, pr))
+                        if pl >= 0 and not np.array_equal(conn[shared], right[:2]):
+                            continue  # other fluid on either side of the face
+                        conn[shared] = right[:2]
+                        conn[4:] = right[2:]
+                    elif np.any(n_sets[nodes[4:]] > 1):
+                        continue
+                    rows_f.append(faces[k])
+                    rows_g.append(ghost[k])
+                    rows_n.append(conn)
+        if rows_f:
+            out_f.append(np.array(rows_f, dtype=np.int64))
+            out_g.append(np.array(rows_g, dtype=bool))
+            out_n.append(np.array(rows_n, dtype=np.int64))
+        return (np.ascontiguousarray(np.concatenate(out_f)), np.concatenate(out_g),
+                np.ascontiguousarray(np.concatenate(out_n)))
 
     # ----------------------------------------------------------------- queries
-    def boundary_pieces(self, side: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """PHYSICAL parts of the box side's grid edges: edge index (into ``grid.side_edges``)
-        and local range ``[s0, s1]`` (0 at the edge's first node). Uncut edges give [0, 1]."""
+    def boundary_pieces(self, side: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """PHYSICAL parts of the box side's grid edges: edge index (into ``grid.side_edges``),
+        local range ``[s0, s1]`` (0 at the edge's first node; uncut edges give [0, 1]) and the
+        virtual nodes ``(k, 2)`` of the edge's two nodes in the fluid part it bounds."""
         cache = self.__dict__.setdefault("_boundary_pieces", {})
         if side in cache:
             return cache[side]
@@ -507,7 +823,13 @@ class CutState:
                         piece_e.append(k)
                         piece_s0.append(s0)
                         piece_s1.append(s1)
-        out = (np.asarray(piece_e, dtype=np.int64), np.asarray(piece_s0, float), np.asarray(piece_s1, float))
+        k = np.asarray(piece_e, dtype=np.int64)
+        sm = 0.5 * (np.asarray(piece_s0, float) + np.asarray(piece_s1, float))
+        mid = (1.0 - sm)[:, None] * X[edges[k, 0]] + sm[:, None] * X[edges[k, 1]]
+        i = {"bottom": (k, 0), "top": (k, g.ny - 1), "left": (0, k), "right": (g.nx - 1, k)}[side]
+        cells = (np.broadcast_to(i[1], k.shape) * g.nx + np.broadcast_to(i[0], k.shape)).astype(np.int64)
+        part = cells + g.n_cells * self.local_part(cells, mid)
+        out = (k, np.asarray(piece_s0, float), np.asarray(piece_s1, float), self.vnodes(edges[k], part[:, None]))
         cache[side] = out
         return out
 
@@ -534,6 +856,15 @@ class CutState:
             pts, _ = self.interface_points(bb, mask)
             total += float(np.sum(np.linalg.norm(pts[:, 1] - pts[:, 0], axis=1)))
         return total
+
+
+def face_nodes(cells: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Nodes of the two cells of each face ``(cl, cr, d)``, ``(k, 6)``: the four of ``cl``
+    (counter-clockwise from its lower left), then the two of ``cr`` away from the face (d = 0:
+    its lower and upper right; d = 1: its upper right and upper left)."""
+    right = cells[faces[:, 1]]
+    far = np.where((faces[:, 2] == 0)[:, None], right[:, [1, 2]], right[:, [2, 3]])
+    return np.ascontiguousarray(np.hstack([cells[faces[:, 0]], far]).astype(np.int64))
 
 
 def _polygonal(geom: shapely.Geometry) -> shapely.Geometry:

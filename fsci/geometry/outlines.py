@@ -94,7 +94,8 @@ def warn_if_thin(outline: Outline, h: float, box: tuple[float, float, float, flo
     if thickness < h:
         warnings.warn(
             f"body '{outline.name}' is {thickness:.4g} thick (largest inscribed circle) but fluid cells are "
-            f"{h:.4g} wide: fluid on both sides shares nodes (one dof set per node); refine the fluid grid",
+            f"{h:.4g} wide: fluid on both sides shares nodes (one dof set per node); refine the fluid grid "
+            "or set fluid.interface.unknowns = 'per_fluid_part'",
             FsciWarning, stacklevel=2)
         return thickness
     # parts thinner than a cell: a fin, the wedge of a valve flap
@@ -112,6 +113,7 @@ def warn_if_thin(outline: Outline, h: float, box: tuple[float, float, float, flo
         warnings.warn(
             f"body '{outline.name}' has {len(parts)} part(s) thinner than the fluid cells there ({hb:.4g}), the "
             f"largest near ({c.x:.4g}, {c.y:.4g}): fluid on both sides of it shares nodes (one dof set per node); "
-            "refine the fluid grid there (the tip of a sharp wedge stays thinner than its cell on any grid)",
+            "refine the fluid grid there (the tip of a sharp wedge stays thinner than its cell on any grid) or set "
+            "fluid.interface.unknowns = 'per_fluid_part'",
             FsciWarning, stacklevel=2)
     return thickness

@@ -203,13 +203,14 @@ def cell_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, go, prm, b0, b1, sp, out)
 
 
 @njit(cache=True)
-def assemble_fluid_cells(xs, ys, nx, gcells, cell_ids, qptr, qx, qw, bq, V, P, Vo, Vbar, prm,
+def assemble_fluid_cells(xs, ys, nx, conn, cell_ids, qptr, qx, qw, bq, V, P, Vo, Vbar, prm,
                          gnode, pos, data, rhs, row_base, row_len, start, ndof, want_matrix):
-    """Add the cell terms (:func:`cell_density`) for the cells ``cell_ids``.
+    """Add the cell terms (:func:`cell_density`) for the integration parts ``k``: background
+    cell ``cell_ids[k]`` with the (virtual) nodes ``conn[k]`` of its fluid piece.
 
-    ``qx[qptr[k]:qptr[k+1]]`` are the physical quadrature points of cell ``cell_ids[k]`` with
+    ``qx[qptr[k]:qptr[k+1]]`` are the physical quadrature points of part ``k`` with
     weights ``qw`` and body force density ``bq`` (already multiplied by rho and time-weighted).
-    ``V, P`` are the current and ``Vo`` the previous velocity on all background nodes, ``Vbar``
+    ``V, P`` are the current and ``Vo`` the previous velocity on all virtual nodes, ``Vbar``
     the frozen stabilisation velocity.
     """
     rho = prm[P_RHO]
@@ -238,7 +239,7 @@ def assemble_fluid_cells(xs, ys, nx, gcells, cell_ids, qptr, qx, qw, bq, V, P, V
         x0, y0, hx, hy = _cell_geometry(xs, ys, nx, c)
         dxy = 1.0 / (hx * hy)
         for a in range(4):
-            n = gcells[c, a]
+            n = conn[k, a]
             nodes[a] = gnode[n]
             Ve[a, 0] = V[n, 0]
             Ve[a, 1] = V[n, 1]
@@ -303,41 +304,26 @@ def assemble_fluid_cells(xs, ys, nx, gcells, cell_ids, qptr, qx, qw, bq, V, P, V
 
 
 @njit(cache=True, inline="always")
-def _face_union(gcells, cl, cr, d, fn, rmap):
-    for a in range(4):
-        fn[a] = gcells[cl, a]
+def _face_map(d, rmap):
+    """Positions in the six face nodes (:func:`fsci.cut.state.face_nodes`) of the right/upper
+    cell's four nodes."""
     if d == 0:
         rmap[0] = 1
         rmap[1] = 4
         rmap[2] = 5
         rmap[3] = 2
-        fn[4] = gcells[cr, 1]
-        fn[5] = gcells[cr, 2]
     else:
         rmap[0] = 3
         rmap[1] = 2
         rmap[2] = 4
         rmap[3] = 5
-        fn[4] = gcells[cr, 2]
-        fn[5] = gcells[cr, 3]
 
 
 @njit(cache=True)
-def face_nodes(gcells, faces):
-    """Background node ids of the two cells of each face, ``(n_faces, 6)``, in kernel order."""
-    out = np.empty((faces.shape[0], 6), dtype=np.int64)
-    fn = np.empty(6, dtype=np.int64)
-    rmap = np.empty(4, dtype=np.int64)
-    for f in range(faces.shape[0]):
-        _face_union(gcells, faces[f, 0], faces[f, 1], faces[f, 2], fn, rmap)
-        out[f] = fn
-    return out
-
-
-@njit(cache=True)
-def assemble_fluid_faces(xs, ys, nx, gcells, faces, ghost, Vbar, V, P, prm, gnode, pos,
+def assemble_fluid_faces(xs, ys, nx, fnodes, faces, ghost, Vbar, V, P, prm, gnode, pos,
                          data, rhs, row_base, row_len, start, ndof, want_matrix):
-    """Add CIP (25) and ghost-penalty (26) face terms; ``ghost[f]`` marks ghost-penalty faces."""
+    """Add CIP (25) and ghost-penalty (26) face terms; ``ghost[f]`` marks ghost-penalty faces,
+    ``fnodes[f]`` are the six (virtual) nodes of face ``f``'s two cells."""
     rho = prm[S_RHO]
     mu = prm[S_MU]
     nu = mu / rho
@@ -355,8 +341,9 @@ def assemble_fluid_faces(xs, ys, nx, gcells, faces, ghost, Vbar, V, P, prm, gnod
         cl = faces[f, 0]
         cr = faces[f, 1]
         d = faces[f, 2]
-        _face_union(gcells, cl, cr, d, fn, rmap)
+        _face_map(d, rmap)
         for a in range(6):
+            fn[a] = fnodes[f, a]
             nodes[a] = gnode[fn[a]]
         _, _, hxl, hyl = _cell_geometry(xs, ys, nx, cl)
         _, _, hxr, hyr = _cell_geometry(xs, ys, nx, cr)

@@ -34,7 +34,7 @@ def fluid_values(fluid, points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarr
     h = g.cell_size[cells]
     N, dN = q1_eval(2.0 * (points - x0) / h - 1.0)
     dNx = dN * (2.0 / h)[:, None, :]
-    nodes = g.cells[cells]
+    nodes = fluid.cut.conn_at(cells, points) if fluid.cut is not None else g.cells[cells]
     V = fluid.V[nodes]
     v = np.einsum("ka,kai->ki", N, V)
     gv = np.einsum("kai,kaj->kij", V, dNx)

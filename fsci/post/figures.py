@@ -89,7 +89,7 @@ def _grid_polygons(f) -> tuple[np.ndarray, np.ndarray]:
     cells = f.int_cells
     polys = g.nodes[g.cells[cells]]
     speed = np.linalg.norm(f.V, axis=1)
-    return polys, speed[g.cells[cells]].mean(axis=1)
+    return polys, speed[f.int_conn].mean(axis=1)
 
 
 def snapshot_figure(system, path: Path, title: str = "", window: tuple[float, float, float, float] | None = None,
@@ -102,7 +102,7 @@ def snapshot_figure(system, path: Path, title: str = "", window: tuple[float, fl
 
     f = system.fluid
     polys, parents = f.physical_polygons()
-    cells = f.grid.cells[parents]
+    cells = f.cut.conn_at(parents, np.array([p.mean(axis=0) for p in polys]).reshape(-1, 2))
     fields = {"|v|": np.linalg.norm(f.V, axis=1)[cells].mean(axis=1), "p": f.P[cells].mean(axis=1)}
     out = np.zeros((0, tk.N_OUT))
     if system.extra_terms:

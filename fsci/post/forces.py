@@ -16,11 +16,11 @@ from fsci.assembly import ResidualAssembly
 
 
 def fluid_bulk_residual(system) -> np.ndarray:
-    """Fluid residual without interface terms and Dirichlet rows, per background node ``(n, 3)``."""
+    """Fluid residual without interface terms and Dirichlet rows, per virtual node ``(n, 3)``."""
     f = system.fluid
     asm = ResidualAssembly(system.layout)
     f.assemble(asm, system.ctx)
-    out = np.zeros((f.grid.n_nodes, 3))
+    out = np.zeros((len(f.active), 3))
     act = np.nonzero(f.active)[0]
     start = system.layout.start[f.gnode[act]]
     for c in range(3):
@@ -34,12 +34,12 @@ def volume_loads(system, bodies: list[int], about=None) -> np.ndarray:
     rotation ``e_z × (x − about)`` on the nodes of every cell containing one of their wetted
     pieces (Q1 reproduces both exactly there; no double counting where bodies meet)."""
     seg = system.cut.segments
-    cells = seg.cell[np.isin(seg.body, bodies) & seg.fs]
-    if len(cells) == 0:
+    parts = seg.part[np.isin(seg.body, bodies) & seg.fs]
+    if len(parts) == 0:
         return np.zeros(3)
-    nodes = np.unique(system.fluid.grid.cells[cells])
+    nodes = np.unique(system.cut.part_conn(parts))
     R = fluid_bulk_residual(system)[nodes, :2]
-    r = system.fluid.grid.nodes[nodes] - (np.zeros(2) if about is None else np.asarray(about, float))
+    r = system.fluid.grid.nodes[system.fluid.vnode_node[nodes]] - (np.zeros(2) if about is None else np.asarray(about, float))
     return -np.array([R[:, 0].sum(), R[:, 1].sum(), np.sum(r[:, 0] * R[:, 1] - r[:, 1] * R[:, 0])])
 
 
@@ -79,11 +79,12 @@ def interface_flux_points(system, body: int | None = None) -> tuple[np.ndarray, 
         sq = seg.s0[m, None] + (seg.s1[m] - seg.s0[m])[:, None] * gp[None, :]
         xq = x[:, 0, None, :] + sq[..., None] * d[:, None, :]
         wq = (L * (seg.s1[m] - seg.s0[m]))[:, None] * gw[None, :]
-        cells = np.repeat(seg.cell[m], len(gp))
+        parts_q = np.repeat(seg.part[m], len(gp))
+        cells = parts_q % g.n_cells
         pts = xq.reshape(-1, 2)
         x0 = np.column_stack([g.xs[g.cell_ij[cells, 0]], g.ys[g.cell_ij[cells, 1]]])
         N, _ = q1_eval(2.0 * (pts - x0) / g.cell_size[cells] - 1.0)
-        v = np.einsum("ka,kad->kd", N, f.V[g.cells[cells]]).reshape(xq.shape)
+        v = np.einsum("ka,kad->kd", N, f.V[system.cut.part_conn(parts_q)]).reshape(xq.shape)
         vs = (1.0 - sq)[..., None] * vs_nodes[:, 0, None, :] + sq[..., None] * vs_nodes[:, 1, None, :]
         nq = np.repeat(n, len(gp), axis=0)
         parts.append((pts, nq, (wq * np.einsum("kgd,kd->kg", v, n)).ravel(), (wq * np.einsum("kgd,kd->kg", vs, n)).ravel()))

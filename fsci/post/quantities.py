@@ -54,7 +54,7 @@ def _fluid_interpolate(fluid, points: np.ndarray) -> tuple[np.ndarray, np.ndarra
     x0 = np.column_stack([g.xs[g.cell_ij[cells, 0]], g.ys[g.cell_ij[cells, 1]]])
     xi = 2.0 * (points - x0) / g.cell_size[cells] - 1.0
     N, _ = q1_eval(xi)
-    nodes = g.cells[cells]
+    nodes = fluid.cut.conn_at(cells, points) if fluid.cut is not None else g.cells[cells]
     v = np.einsum("ka,kad->kd", N, fluid.V[nodes])
     p = np.einsum("ka,ka->k", N, fluid.P[nodes])
     return v, p
@@ -238,7 +238,7 @@ class QuantityEvaluator:
             elif q.kind == "elastic_energy":
                 out[q.name] = float(sum(elastic_energy(solid) for solid in self._prepared[q.name]))
             elif q.kind == "fluid_pieces":
-                out[q.name] = float(len(shapely.get_parts(s.cut.fluid))) if not s.cut.fluid.is_empty else 0.0
+                out[q.name] = float(len(s.cut.pieces))
             elif q.kind == "contact_profile":
                 out.update(contact_summary(s, q.params["body"], q.params.get("axis", 0.0), q.params.get("prefix", "")))
             elif q.kind == "reaction":
@@ -431,33 +431,24 @@ def mass_balance(system, prefix: str) -> dict[str, float]:
 
 def piece_mass_error(system) -> float:
     """Largest ``|Φ^S_P − Φ_box,P|`` over the connected fluid pieces P: (46) holds for the whole
-    fluid; it holds for each piece only if no flow passes between pieces that the bodies
-    separate (a shut valve). Background nodes are shared by every fluid part of a cell (one
-    dof set per node), so a leak through such cells shows here and not in ``err1``."""
+    fluid; it holds for each piece because a node carries one set of unknowns per piece
+    (:class:`fsci.cut.state.CutState`), so no flow passes between pieces that the bodies
+    separate (a shut valve)."""
     from fsci.post.forces import interface_flux_points
 
     fluid = system.fluid
-    parts = list(shapely.get_parts(system.cut.fluid)) if not system.cut.fluid.is_empty else []
-    if not parts:
+    cut = system.cut
+    if not cut.pieces:
         return 0.0
-    tree = shapely.STRtree(parts)
+    n_pieces = len(cut.pieces)
     nudge = 1e-6 * float(fluid.grid.cell_size.min())
-
-    def piece_of(x: np.ndarray) -> np.ndarray:
-        """The piece nearest to each point (the one containing it, where one does): a probe
-        just off a Γ^FS piece may land in a closed film or on a neighbouring body."""
-        lab = np.zeros(len(x), dtype=np.int64)
-        if len(x):
-            i, j = tree.query_nearest(shapely.points(x), all_matches=False)
-            lab[i] = j
-        return lab
-
     x, n, _, phi_s = interface_flux_points(system)
-    err = np.bincount(piece_of(x + nudge * n), weights=phi_s, minlength=len(parts))
+    # a probe just off a Γ^FS piece may land in a closed film: piece_of takes the nearest piece
+    err = np.bincount(cut.piece_of(x + nudge * n), weights=phi_s, minlength=n_pieces)
     for side in ("left", "right", "bottom", "top"):
         mid, flux = boundary_flux_points(fluid, side)
         inward = -np.asarray(fluid.grid.side_normal(side), float)
-        err -= np.bincount(piece_of(mid + nudge * inward), weights=flux, minlength=len(parts))
+        err -= np.bincount(cut.piece_of(mid + nudge * inward), weights=flux, minlength=n_pieces)
     return float(np.max(np.abs(err)))
 
 
@@ -467,15 +458,15 @@ def boundary_flux_points(fluid, side: str) -> tuple[np.ndarray, np.ndarray]:
     edges = g.side_edges(side)
     n = g.side_normal(side)
     X = g.nodes
-    k, s0, s1 = fluid.cut.boundary_pieces(side)
+    k, s0, s1, vn = fluid.cut.boundary_pieces(side)
     if len(k) == 0:
         return np.zeros((0, 2)), np.zeros(0)
     e = edges[k]
     length = np.linalg.norm(X[e[:, 1]] - X[e[:, 0]], axis=1) * (s1 - s0)
-    vn = fluid.V[:, 0] * n[0] + fluid.V[:, 1] * n[1]
+    vdotn = fluid.V[:, 0] * n[0] + fluid.V[:, 1] * n[1]
     sm = 0.5 * (s0 + s1)  # v·n is linear along an edge: the midpoint rule is exact
     mid = (1.0 - sm)[:, None] * X[e[:, 0]] + sm[:, None] * X[e[:, 1]]
-    return mid, length * ((1.0 - sm) * vn[e[:, 0]] + sm * vn[e[:, 1]])
+    return mid, length * ((1.0 - sm) * vdotn[vn[:, 0]] + sm * vdotn[vn[:, 1]])
 
 
 def flow_rate(fluid, side: str) -> float:
@@ -583,8 +574,8 @@ def stream_function(fluid) -> np.ndarray:
     Averaging with the x-integration of -v from the left wall removes most of the discrete
     divergence error."""
     g = fluid.grid
-    u = fluid.V[:, 0].reshape(g.ny + 1, g.nx + 1)
-    v = fluid.V[:, 1].reshape(g.ny + 1, g.nx + 1)
+    u = fluid.V[:g.n_nodes, 0].reshape(g.ny + 1, g.nx + 1)
+    v = fluid.V[:g.n_nodes, 1].reshape(g.ny + 1, g.nx + 1)
     dy = np.diff(g.ys)[:, None]
     dx = np.diff(g.xs)[None, :]
     psi_y = np.vstack([np.zeros((1, g.nx + 1)), np.cumsum(0.5 * dy * (u[1:] + u[:-1]), axis=0)])
