@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from fsci.config import problem_from_dict
-from fsci.cut.state import SOLID
-from fsci.errors import FsciWarning
+from fsci.cut.state import SOLID, CutState
+from fsci.errors import FsciWarning, SolverError
 from fsci.fields import StepContext
 from fsci.post.quantities import flow_rate
 from fsci.simulation import Simulation
@@ -106,19 +106,24 @@ def _ring(r_out: float = 0.3, r_in: float = 0.27, center=(0.5 + 1e-3, 0.5 + 2e-3
             "mesh": {"type": "outline", "loops": [circle(r_out, "outer"), circle(r_in, "inner")], "h": 0.04}}
 
 
-@pytest.mark.parametrize("recut", [False, True])
-def test_jacobian_with_two_sets_per_node_matches_finite_differences(recut):
-    """An elastic ring between an inner and an outer piece: fluid cells, faces, coupling pieces
-    and the pressure pin of each piece (closed box) read the sets of their own piece; every
-    block of the Jacobian against central differences, with the cut following the ring
-    (``recut``, the shape derivative) or not."""
+def _ring_case(recut: bool) -> dict:
+    """The ring in a closed unit box (8 × 8 cells), transient, separate unknowns per part."""
     fluid = {"rho": 1.0, "mu": 0.3, "grid": {"x": {"start": 0.0, "end": 1.0, "cells": 8},
                                              "y": {"start": 0.0, "end": 1.0, "cells": 8}},
              "interface": {"shape_derivative": recut, "unknowns": "per_fluid_part"}, "body_force": [0.3, "-1+x"],
              "dirichlet": [{"boundary": s, "value": [0.0, 0.0]} for s in ("left", "right", "bottom", "top")]}
     case = static_case([_ring()], fluid)
     case["time"] = {"type": "transient", "theta": 1.0, "t_end": 0.1, "dt": 0.1}
-    system = System(problem_from_dict(case))
+    return case
+
+
+@pytest.mark.parametrize("recut", [False, True])
+def test_jacobian_with_two_sets_per_node_matches_finite_differences(recut):
+    """An elastic ring between an inner and an outer piece: fluid cells, faces, coupling pieces
+    and the pressure pin of each piece (closed box) read the sets of their own piece; every
+    block of the Jacobian against central differences, with the cut following the ring
+    (``recut``, the shape derivative) or not."""
+    system = System(problem_from_dict(_ring_case(recut)))
     ctx = StepContext(0.0, 0.1, 0.1, 1.0, False)
     rng = np.random.default_rng(7)
     f = system.fluid
@@ -144,3 +149,35 @@ def test_with_one_set_per_node_the_thin_wall_leaks():
     q = flow_rate(sim.system.fluid, "left")
     print(q * 24.0)
     assert -q > 0.05 / 24.0
+
+
+def test_a_gap_that_closes_and_opens_in_turn_stops_the_step(monkeypatch):
+    """Where a gap closes in one Newton iterate and opens again in the next, the sets of
+    unknowns split and merge in turn and Newton cycles (seen on the pump's closing valve): after
+    ``max_layout_changes`` such alternations the step stops with a SolverError (the time loop
+    then retries with a smaller step); with one set per node it goes on."""
+    case = _ring_case(recut=False)
+    case["fluid"]["interface"]["freeze_cut_after"] = 20
+    system = System(problem_from_dict(case))
+    ctx = StepContext(0.0, 0.1, 0.1, 1.0, False)
+    system.begin_step(ctx)
+    split = system.cut
+    merged = CutState(split.grid, split.outlines[:0], separate_parts=True)  # no body: one piece
+    assert len(split.pieces) == 2 and len(merged.pieces) == 1
+    turn = iter([merged, split] * 10)
+
+    def alternate(keep_nodes=None, initial=False):
+        system.cut = next(turn)
+        return False
+
+    monkeypatch.setattr(system, "update_cut", alternate)
+    monkeypatch.setattr(system, "_motion_since_cut", lambda: 1.0)
+    limit = system.fluid.spec.interface.max_layout_changes
+    for it in range(2, 2 + limit):
+        system.before_iteration(it)
+    with pytest.raises(SolverError, match="split and merged again"):
+        system.before_iteration(2 + limit)
+    split.separate_parts = merged.separate_parts = False  # one set per node: no unknowns change
+    system.piece_changes = 0
+    for it in range(2, 4 + limit):
+        system.before_iteration(it)

@@ -4,11 +4,11 @@ One :class:`CutState` per geometry holds everything the fluid and coupling terms
 
 * cell states: ``FLUID`` (uncut, standard Gauss), ``CUT`` (integrated on its PHYSICAL part),
   ``SOLID`` (not integrated);
-* the connected fluid *pieces* (largest first) and the fluid unknowns: one set per background
-  node and fluid piece in the node's cells (*virtual nodes*; a node beside a body that separates
-  two pieces, e.g. a shut valve, carries one set for each side, so that no cell couples the
-  pieces and each piece keeps its own mass balance (46)); ACTIVE virtual nodes and the faces
-  that carry CIP / ghost penalty, each face within one piece;
+* the connected fluid *pieces* (largest first) and the sets of fluid unknowns (*virtual
+  nodes*): one per background node (the paper's), or with ``separate_parts`` one per connected
+  fluid part of the node's cells, so that fluid on both sides of a body thinner than a cell or
+  of a shut valve is not coupled; ACTIVE virtual nodes and the faces that carry CIP / ghost
+  penalty;
 * volume quadrature on the physical part of cut cells: the fluid polygon of the cell is
   triangulated (constrained Delaunay, GEOS) and integrated with a collapsed Gauss rule exact
   for total degree ``quad_degree`` (5 by default: every Galerkin integrand of (22) on a
@@ -51,7 +51,7 @@ class Segments:
     s0: np.ndarray  # local coordinate range on the edge, 0 at node a, 1 at node b
     s1: np.ndarray
     cell: np.ndarray  # background cell evaluated for fluid quantities
-    part: np.ndarray  # fluid part (cell + n_cells × fluid piece, CutState.part_conn) of that cell
+    part: np.ndarray  # fluid part of that cell on the wetted side (cell + n_cells × k, CutState.part_conn)
     fs: np.ndarray  # True: bounds the physical fluid (Γ^FS); False: Γ^SC
     kind0: np.ndarray  # kind of each end (END_FIXED, END_X, END_Y) and its grid-line coordinate
     line0: np.ndarray
@@ -583,7 +583,7 @@ class CutState:
                 out[k] = boxes[k]
         return out
 
-    def _side_links(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _side_links(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Fluid parts connected across a cell side next to a CUT cell: ``(code_a, code_b,
         side)`` rows, ``side`` the grid edge ``(node, node)`` they share; and the cells of
         sides between two PHYSICAL cells that no fluid crosses."""
