@@ -253,8 +253,8 @@ class SolidField:
 
 
 class FluidField:
-    """Velocity/pressure on the virtual nodes of the background grid (one per node and fluid
-    piece, :class:`fsci.cut.state.CutState`; the first ``n_nodes`` are the grid nodes); ACTIVE
+    """Velocity/pressure on the virtual nodes of the background grid (one set of unknowns per
+    node, or per node and connected fluid part, :class:`fsci.cut.state.CutState`; the first ``n_nodes`` are the grid nodes); ACTIVE
     virtual nodes carry dofs."""
 
     def __init__(self, fluid: Fluid) -> None:
@@ -291,8 +291,8 @@ class FluidField:
     # ----------------------------------------------------------------- geometry
     def set_cut(self, cut, extend: bool = True) -> bool:
         """Take integration parts, quadrature, faces and the ACTIVE virtual nodes from a
-        CutState and carry the state over to its virtual nodes (a node's unknowns of a piece
-        from those of the nearest piece of the previous cut at that node; newly ACTIVE nodes,
+        CutState and carry the state over to its virtual nodes (a node's set of unknowns
+        from the set of the previous cut at that node whose fluid lies nearest; newly ACTIVE nodes,
         if ``extend``, from their neighbours, paper Sec. 3.4.3). Returns True if the ACTIVE
         virtual nodes changed (the dof layout must then be rebuilt)."""
         self.cut = cut

@@ -71,9 +71,9 @@ def transfer_indices(old_node: np.ndarray, old_rep: np.ndarray, old_active: np.n
                      new_rep: np.ndarray, n_nodes: int) -> np.ndarray:
     """For each virtual node of a new cut, the virtual node of the previous cut whose values it
     takes (-1: none; the node was not ACTIVE). A node with one set of unknowns before and after
-    keeps its values; where a node has several (one per fluid piece) before or after, each new
-    set takes the old set of that node whose fluid lies nearest (representative points), so a
-    piece that splits off keeps its values and two pieces that merge keep those of the nearer."""
+    keeps its values; where a node has several (one per connected fluid part) before or after, each
+    new set takes the old set of that node whose fluid lies nearest (representative points), so
+    fluid that splits off keeps its values and two parts that merge keep those of the nearer."""
     src = np.full(len(new_node), -1, dtype=np.int64)
     src[:n_nodes] = np.where(old_active[:n_nodes], np.arange(n_nodes), -1)
     multi = np.unique(np.concatenate([old_node[n_nodes:], new_node[n_nodes:]]))
