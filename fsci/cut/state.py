@@ -557,9 +557,7 @@ class CutState:
             self._build_sets(cand)
         self.vnode_piece = np.full(self.n_vnodes, -1, dtype=np.int64)  # the fluid piece of each set
         if self.separate_parts and len(self.pieces) > 1:  # (read for the pressure pins)
-            w = np.add.reduceat(self.qw, self.qptr[:-1])
-            centre = np.column_stack([np.add.reduceat(self.qw * self.qx[:, d], self.qptr[:-1]) for d in range(2)])
-            self.vnode_piece[self.int_conn] = self.piece_of(centre / w[:, None])[:, None]
+            self.vnode_piece[self.int_conn] = self.piece_of(self._part_centroids())[:, None]
         else:
             self.vnode_piece[self.int_conn] = 0
         if len(cand) == 0:
@@ -583,27 +581,31 @@ class CutState:
                 out[k] = boxes[k]
         return out
 
+    def _neighbours(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every pair of cells sharing a side, ``(k, 2)`` (left/lower first), and the side's two
+        nodes (the first cell's right side, nodes 1 and 2, or its top, nodes 3 and 2)."""
+        g = self.grid
+        cells = np.arange(g.n_cells)
+        right = cells[g.cell_ij[:, 0] < g.nx - 1]
+        up = cells[g.cell_ij[:, 1] < g.ny - 1]
+        pairs = np.vstack([np.column_stack([right, right + 1]), np.column_stack([up, up + g.nx])])
+        side = np.vstack([g.cells[right][:, [1, 2]], g.cells[up][:, [3, 2]]])
+        return pairs, side
+
+    def _part_centroids(self) -> np.ndarray:
+        """Centroid of the fluid of every integration part, ``(k, 2)``."""
+        w = np.add.reduceat(self.qw, self.qptr[:-1])
+        return np.column_stack([np.add.reduceat(self.qw * self.qx[:, d], self.qptr[:-1]) for d in range(2)]) / w[:, None]
+
     def _side_links(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Fluid parts connected across a cell side next to a CUT cell: ``(code_a, code_b,
         side)`` rows, ``side`` the grid edge ``(node, node)`` they share; and the cells of
         sides between two PHYSICAL cells that no fluid crosses."""
         g = self.grid
-        nx = g.nx
         st = self.state
-        phys = st != SOLID
-        cells = np.arange(g.n_cells)
-        i, j = g.cell_ij[:, 0], g.cell_ij[:, 1]
-        pairs = [np.column_stack([cells[i < nx - 1], cells[i < nx - 1] + 1]),
-                 np.column_stack([cells[j < g.ny - 1], cells[j < g.ny - 1] + nx])]
-        rows = []
-        for d, pr in enumerate(pairs):
-            keep = phys[pr[:, 0]] & phys[pr[:, 1]] & ((st[pr[:, 0]] == CUT) | (st[pr[:, 1]] == CUT))
-            pr = pr[keep]
-            # shared side: d = 0 the right side of the first cell (nodes 1, 2), d = 1 its top (3, 2)
-            side = g.cells[pr[:, 0]][:, [1, 2]] if d == 0 else g.cells[pr[:, 0]][:, [3, 2]]
-            rows.append((pr, side))
-        pr = np.vstack([r[0] for r in rows])
-        side = np.vstack([r[1] for r in rows])
+        pr, side = self._neighbours()
+        keep = (st[pr[:, 0]] != SOLID) & (st[pr[:, 1]] != SOLID) & ((st[pr[:, 0]] == CUT) | (st[pr[:, 1]] == CUT))
+        pr, side = pr[keep], side[keep]
         count = lambda c: np.array([len(self.split_cells.get(int(x), (0,))) for x in c], dtype=np.int64)  # noqa: E731
         na, nb = count(pr[:, 0]), count(pr[:, 1])
         rep_pair = np.repeat(np.arange(len(pr)), na * nb)
@@ -664,18 +666,11 @@ class CutState:
         ca, cb, side, _ = self._links
         # sides between two FLUID cells are crossed everywhere
         st = self.state
-        nx = g.nx
-        cells = np.arange(g.n_cells)
-        i, j = g.cell_ij[:, 0], g.cell_ij[:, 1]
-        ff = []
-        for d, (ok, step, nodes) in enumerate(((i < nx - 1, 1, [1, 2]), (j < g.ny - 1, nx, [3, 2]))):
-            a = cells[ok]
-            b = a + step
-            m = (st[a] == FLUID) & (st[b] == FLUID) & np.any(is_cand[g.cells[a][:, nodes]], axis=1)
-            ff.append((a[m], b[m], g.cells[a[m]][:, nodes]))
-        ca = np.concatenate([ca] + [x[0] for x in ff])
-        cb = np.concatenate([cb] + [x[1] for x in ff])
-        side = np.vstack([side] + [x[2] for x in ff])
+        pr, fside = self._neighbours()
+        m = (st[pr[:, 0]] == FLUID) & (st[pr[:, 1]] == FLUID) & np.any(is_cand[fside], axis=1)
+        ca = np.concatenate([ca, pr[m, 0]])
+        cb = np.concatenate([cb, pr[m, 1]])
+        side = np.vstack([side, fside[m]])
         src, dst = [], []
         for e in range(2):
             u = side[:, e]
@@ -734,8 +729,7 @@ class CutState:
         rep = g.nodes[self.vnode_node].astype(float)
         if len(self.int_parts) == 0:
             return rep
-        w = np.add.reduceat(self.qw, self.qptr[:-1])
-        c = np.column_stack([np.add.reduceat(self.qw * self.qx[:, d], self.qptr[:-1]) for d in range(2)]) / w[:, None]
+        c = self._part_centroids()
         v = self.int_conn.ravel()
         cnt = np.bincount(v, minlength=self.n_vnodes).astype(float)
         acc = np.column_stack([np.bincount(v, weights=np.repeat(c[:, d], 4), minlength=self.n_vnodes) for d in range(2)])
