@@ -92,6 +92,7 @@ class InterfaceSettings:
     trace_constant: float = 1.43426  # C_T of Q1 (4C, pseudo-2D)
     adjoint: str = "skew"  # viscous adjoint: "skew" (s_adj = -1) or "symmetric" (+1)
     island_factor: float = 2.0  # islands: bounding-box diagonal < factor * cell diagonal
+    trapped_film: float = 0.1  # islands too: enclosed pieces thinner (2 area / perimeter) than this * cell diagonal
     eps_geom: float = 1e-9  # re-cut while the bodies moved more than eps_geom * (smallest cell) since the last cut
     grow_only_after: int = 5  # Newton iterations after which the ACTIVE set may only grow
     freeze_cut_after: int = 8  # Newton iterations after which the cut is kept fixed (paper 3.4.2)

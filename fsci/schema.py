@@ -757,6 +757,8 @@ INTERFACE = Table([
     Key("trace_constant", Num(0.0, lo_open=True), 1.43426, "trace-inequality constant C_T of Q1 cells"),
     Key("adjoint", Str(("skew", "symmetric")), "skew", "viscous adjoint consistency term"),
     Key("island_factor", Num(0.0), 2.0, "fluid islands smaller than this × cell diagonal are dropped"),
+    Key("trapped_film", Num(0.0), 0.1, "enclosed fluid pieces (not reaching the box boundary) whose mean "
+        "thickness 2 area / perimeter is below this × cell diagonal are dropped as islands"),
     Key("eps_geom", Num(0.0), 1e-9, "re-cut when bodies moved more than this × smallest cell"),
     Key("grow_only_after", Int(1), 5, "Newton iterations after which the active set may only grow"),
     Key("freeze_cut_after", Int(1), 8, "Newton iterations after which the cut is kept (paper §3.4.2)"),

@@ -84,7 +84,7 @@ class System:
         outlines = self.outlines()
         st = f.spec.interface
         cut = CutState(f.grid, outlines, st.island_factor, keep_nodes=keep_nodes, film_closure=st.film_closure,
-                       separate_parts=st.unknowns == "per_fluid_part")
+                       separate_parts=st.unknowns == "per_fluid_part", trapped_film=st.trapped_film)
         self.timings["cut"] += time.perf_counter() - t0
         self.counts["cut"] += 1
         if initial and st.unknowns == "per_node":  # thin bodies share nodes only with one set per node

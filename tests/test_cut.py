@@ -116,8 +116,38 @@ def test_fluid_island_between_bodies_is_removed():
     assert len(cs.islands) == 1 and abs(cs.islands[0].area - 0.08 * 0.01) < 1e-14
     union = shapely.union_all([o.polygon for o in (left, ring_a, ring_b, right)])
     assert abs(cs.qw.sum() - (1.0 - union.area - 0.08 * 0.01)) < 1e-12
-    keep = CutState(GRID, [left, ring_a, ring_b, right], island_factor=0.0)
+    keep = CutState(GRID, [left, ring_a, ring_b, right], island_factor=0.0, trapped_film=0.0)
     assert len(keep.islands) == 0 and abs(keep.qw.sum() - (1.0 - union.area)) < 1e-12
+
+
+@pytest.mark.parametrize("thickness, right_end, dropped", [
+    (0.01, 0.8, True),     # enclosed, mean thickness 0.0098 < 0.1 × cell diagonal 0.0141: dropped
+    (0.02, 0.8, False),    # enclosed, 0.0192: thick enough to stay fluid
+    (0.01, 1.0, False),    # as thin but reaching the box boundary (an outlet): stays fluid
+])
+def test_film_trapped_between_bodies_is_dropped_when_thin(thickness, right_end, dropped):
+    """A slot of fluid five cells long between bodies in contact (too long for the bounding-box
+    island rule) is dropped with ``trapped_film = 0.1`` when it is enclosed and thinner than
+    0.1 cell diagonals on average (2 area / perimeter); its boundary then is Γ^SC."""
+    lo, hi = 0.5 - 0.5 * thickness, 0.5 + 0.5 * thickness
+    bodies = [rect_outline(0, 0.1, 0.3, 0.2, 0.7), rect_outline(1, 0.15, 0.3, right_end, lo),
+              rect_outline(2, 0.15, hi, right_end, 0.7)]
+    if right_end < 1.0:
+        bodies.append(rect_outline(3, 0.7, 0.3, 0.8, 0.7))  # closes the slot x in (0.2, 0.7)
+    slot = 0.5 * thickness if right_end < 1.0 else 0.8 * thickness
+    union = shapely.union_all([o.polygon for o in bodies])
+    fluid_area = 1.0 - union.area
+    cs = CutState(GRID, bodies, island_factor=2.0, trapped_film=0.1)
+    assert (len(cs.islands) == 1) == dropped
+    assert abs(cs.qw.sum() - (fluid_area - (slot if dropped else 0.0))) < 1e-12
+    sc = sum(np.linalg.norm(p[:, 1] - p[:, 0], axis=1).sum() for p in
+             [cs.interface_points(k, ~cs.segments.fs)[0] for k in range(len(bodies))])
+    slot_walls = 2.0 * (slot / thickness) + (2.0 * thickness if right_end < 1.0 else thickness)
+    keep = CutState(GRID, bodies, island_factor=2.0, trapped_film=0.0)  # the rule off: always fluid
+    sc_keep = sum(np.linalg.norm(p[:, 1] - p[:, 0], axis=1).sum() for p in
+                  [keep.interface_points(k, ~keep.segments.fs)[0] for k in range(len(bodies))])
+    assert len(keep.islands) == 0 and abs(keep.qw.sum() - fluid_area) < 1e-12
+    assert abs(sc - sc_keep - (slot_walls if dropped else 0.0)) < 1e-12
 
 
 def test_rotated_rectangle_many_shifts_never_crash():

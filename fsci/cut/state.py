@@ -20,7 +20,14 @@ One :class:`CutState` per geometry holds everything the fluid and coupling terms
 
 The physical fluid region is ``box − ⋃ bodies − islands``; an island is a connected fluid piece
 whose bounding-box diagonal is below ``island_factor`` × the size of the cells it touches
-(4C's SELFCUT_MESHCORRECTION_MULTIPLICATOR; 2 in its FSCI test).
+(4C's SELFCUT_MESHCORRECTION_MULTIPLICATOR; 2 in its FSCI test), or a *trapped film*: a piece
+that does not reach the box boundary and whose mean thickness 2 area / perimeter is below
+``trapped_film`` × that size. A film of fluid enclosed between two contact zones of bodies
+pressed together cannot flow anywhere: as incompressible fluid with the bodies' velocities on
+its whole boundary it has a solution only if the bodies keep its volume exactly, which the
+penalty contact does not. Thinner than a small fraction of a cell, it belongs to the contact
+zone (paper Sec. 1, Figure 1, zone (3): fluid between contacting bodies that the macroscopic
+model does not represent); kept, it stalls Newton (docs/cases/squeezed.md).
 """
 
 from __future__ import annotations
@@ -208,6 +215,9 @@ class CutState:
         Total polynomial degree integrated exactly on cut cells.
     keep_nodes
         Nodes that must stay ACTIVE (solution-space update rule, paper Sec. 3.4.3).
+    trapped_film
+        Enclosed fluid pieces thinner on average than ``trapped_film`` × (cell diagonal) are
+        islands (see module docstring).
     film_closure
         Gaps between two different bodies thinner than ``2 film_closure × (smallest cell)`` are
         not fluid (closed contact whose discrete gap is slightly positive; see docs).
@@ -218,8 +228,9 @@ class CutState:
 
     def __init__(self, grid: Grid, outlines: list[Outline], island_factor: float = 2.0, quad_degree: int = 5,
                  keep_nodes: np.ndarray | None = None, film_closure: float = 0.0,
-                 separate_parts: bool = False) -> None:
+                 separate_parts: bool = False, trapped_film: float = 0.1) -> None:
         self.grid = grid
+        self.trapped_film = trapped_film
         self.outlines = outlines
         self.island_factor = island_factor
         self.film_closure = film_closure
@@ -250,7 +261,7 @@ class CutState:
             size = np.hypot(bx1 - bx0, by1 - by0)
             cells = g.locate(np.array([[bx0, by0], [bx1, by1], [0.5 * (bx0 + bx1), 0.5 * (by0 + by1)]]))
             h = float(diag[cells].max())
-            (islands if size < self.island_factor * h else keep).append(part)
+            (islands if size < self.island_factor * h or self._is_trapped_film(part, h) else keep).append(part)
         self.fluid = shapely.union_all(keep) if keep else shapely.Polygon()
         # connected pieces, largest first (two pieces touching in a point are two pieces)
         self.pieces = sorted(shapely.get_parts(self.fluid), key=lambda q: -q.area) if keep else []
@@ -258,6 +269,14 @@ class CutState:
             shapely.prepare(self.pieces)
         self.islands = islands
         shapely.prepare(self.fluid)
+
+    def _is_trapped_film(self, part: shapely.Geometry, h: float) -> bool:
+        """Whether fluid piece ``part`` is a film trapped between bodies: it does not reach the
+        box boundary and its mean thickness (2 area / perimeter) is below ``trapped_film`` × the
+        cell diagonal ``h``."""
+        if self.trapped_film <= 0.0 or part.intersects(self.box.exterior):
+            return False
+        return 2.0 * part.area / part.length < self.trapped_film * h
 
     def _closed_films(self, bodies: list[shapely.Geometry]) -> list[shapely.Geometry]:
         """Regions within δ of two different bodies: films thinner than 2δ between bodies in
