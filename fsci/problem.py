@@ -162,6 +162,7 @@ class SolverSettings:
     rtol_residual: float = 1e-10
     damping: bool = True
     linear: str = "auto"
+    forcing: float = 0.9  # largest relative residual of a linear solve with reused factors (0: exact)
     max_step_cuts: int = 6
     step_cut_factor: float = 0.5
     dt_min: float = 0.0

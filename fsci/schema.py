@@ -835,6 +835,8 @@ SOLVER = Table([
     Key("rtol_residual", Num(0.0), 1e-10, "… or the residual fell by this factor from the first iteration"),
     Key("damping", Bool(), True, "damped Newton (step length rule of paper §3.4.1)"),
     Key("linear", Str(("auto", "pardiso", "superlu")), "auto", "linear solver (auto: PARDISO if installed)"),
+    Key("forcing", Num(0.0, 1.0, hi_open=True), 0.9, "largest relative residual of a linear solve that "
+        "reuses factors (inexact Newton, forcing term of Eisenstat and Walker); 0: every solve exact"),
     Key("max_step_cuts", Int(0), 6, "step-size cuts of one step before the run stops"),
     Key("step_cut_factor", Num(0.0, 1.0, lo_open=True, hi_open=True), 0.5, "factor of a step-size cut"),
     Key("dt_min", Num(0.0), 0.0, "smallest step size", "time"),

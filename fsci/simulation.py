@@ -98,7 +98,9 @@ class Simulation:
         if meta.get("writer") is not None and sim.problem.output.fields:
             sim.writer = VTKWriter(out_dir)
             sim.writer.count = meta["writer"]["count"]
-            sim.writer.entries = [tuple(e) for e in meta["writer"]["entries"]]
+            # field outputs of the run so far, less any whose file is gone (a run directory
+            # carried on without its vtu/ folder): fields.pvd lists only files that exist
+            sim.writer.entries = [tuple(e) for e in meta["writer"]["entries"] if (out_dir / e[-1]).exists()]
         if overrides:  # the folder describes the case that runs on: a later resume continues it
             import tomli_w
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -113,6 +114,19 @@ def test_damaged_or_mismatched_checkpoint_is_refused(tmp_path, capsys):
     assert main(["resume", str(out), "--set", "time.t_end=0.08"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "case.toml" in err
+
+
+def test_resume_without_the_field_files_lists_only_files_that_exist(tmp_path):
+    """A run directory carried on without its vtu/ folder (case.toml and checkpoint.npz only):
+    the resumed run writes its new outputs, and fields.pvd lists those, not the missing ones."""
+    out = tmp_path / "run"
+    assert main(["run", "sinking-disk", *SMALL, "--set", "time.t_end=0.04", "--out", str(out)]) == 0
+    for f in (out / "vtu").glob("*.vtu"):
+        f.unlink()
+    assert main(["resume", str(out), "--set", "time.t_end=0.08"]) == 0
+    listed = re.findall(r'file="([^"]+)"', (out / "fields.pvd").read_text())
+    assert listed and all((out / f).exists() for f in listed)
+    assert len(listed) == len(list((out / "vtu").glob("*.vtu")))
 
 
 def test_sigterm_stops_cleanly_with_a_checkpoint(tmp_path):

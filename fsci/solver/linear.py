@@ -50,7 +50,11 @@ class LinearSolver:
         self.timings[phase] += time.perf_counter() - t0
         self.counts[phase] += 1
 
-    def solve(self, A: sp.csr_matrix, b: np.ndarray, pattern_key: bytes | None = None) -> np.ndarray:
+    def solve(self, A: sp.csr_matrix, b: np.ndarray, pattern_key: bytes | None = None,
+              rtol: float = 0.0) -> np.ndarray:
+        """Solve ``A x = b``. ``pattern_key`` identifies the sparsity pattern (analysis reuse);
+        ``rtol`` is the relative residual an iterative solve with reused factors may stop at
+        (Newton's forcing term); a new factorisation always solves to round-off."""
         raise NotImplementedError
 
     def new_system(self) -> None:
@@ -60,7 +64,8 @@ class LinearSolver:
 class SuperLUSolver(LinearSolver):
     name = "superlu"
 
-    def solve(self, A: sp.csr_matrix, b: np.ndarray, pattern_key: bytes | None = None) -> np.ndarray:
+    def solve(self, A: sp.csr_matrix, b: np.ndarray, pattern_key: bytes | None = None,
+              rtol: float = 0.0) -> np.ndarray:
         t0 = time.perf_counter()
         try:
             lu = spla.splu(A.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.01,
@@ -97,9 +102,10 @@ class PardisoSolver(LinearSolver):
     def new_system(self) -> None:
         self._factored = None
 
-    def _reuse(self, A: sp.csr_matrix, b: np.ndarray, pattern_key: bytes | None) -> np.ndarray | None:
-        """GMRES on ``A`` preconditioned with the factors of the last factorised matrix; None if
-        there are none for this pattern or GMRES does not converge in ``max_krylov`` steps."""
+    def _reuse(self, A: sp.csr_matrix, b: np.ndarray, pattern_key: bytes | None, rtol: float) -> np.ndarray | None:
+        """GMRES on ``A`` preconditioned with the factors of the last factorised matrix, to the
+        relative true residual ``max(RTOL, rtol)``; None if there are none for this pattern or
+        GMRES does not get there in ``max_krylov`` steps."""
         if self.max_krylov <= 0 or self._factored is None or pattern_key is None or pattern_key != self._key \
                 or self._factored.shape != A.shape or A.shape[0] < self.SMALL:
             return None  # below SMALL unknowns a factorisation costs about as much as 3 solves
@@ -115,12 +121,13 @@ class PardisoSolver(LinearSolver):
 
         M = spla.LinearOperator(A.shape, dtype=np.float64, matvec=precondition)
         its = [0]
-        x, info = spla.gmres(A, b, M=M, rtol=self.RTOL, atol=0.0, restart=self.max_krylov, maxiter=1,
+        tol = max(self.RTOL, rtol)
+        x, info = spla.gmres(A, b, M=M, rtol=tol, atol=0.0, restart=self.max_krylov, maxiter=1,
                              callback=lambda _: its.__setitem__(0, its[0] + 1), callback_type="pr_norm")
         self._tick("solve", t0)
         self.counts["krylov"] += its[0]
         bn = np.linalg.norm(b)
-        if info != 0 or not np.all(np.isfinite(x)) or np.linalg.norm(A @ x - b) > self.RTOL * max(bn, 1e-300):
+        if info != 0 or not np.all(np.isfinite(x)) or np.linalg.norm(A @ x - b) > tol * max(bn, 1e-300):
             return None
         self.counts["reused"] += 1
         return x
@@ -147,13 +154,14 @@ class PardisoSolver(LinearSolver):
         self._ps.set_phase(phase)
         return self._ps._call_pardiso(A, b)
 
-    def solve(self, A: sp.csr_matrix, b: np.ndarray, pattern_key: bytes | None = None) -> np.ndarray:
+    def solve(self, A: sp.csr_matrix, b: np.ndarray, pattern_key: bytes | None = None,
+              rtol: float = 0.0) -> np.ndarray:
         import pypardiso
 
         A = A.tocsr()
         if not A.has_sorted_indices:
             A.sort_indices()
-        x = self._reuse(A, b, pattern_key)
+        x = self._reuse(A, b, pattern_key, rtol)
         if x is not None:
             return x
         b2 = np.asfortranarray(b.reshape(-1, 1))
