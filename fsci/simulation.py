@@ -70,6 +70,8 @@ class Simulation:
         self.stop_signal: int | None = None  # a signal received outside a Newton solve, acted on after the step
         self._in_solve = False
         self.step_hooks: list[Callable[["Simulation", StepContext, NewtonReport], None]] = []
+        # wall time, per-phase timings and counts of the processes before a resume
+        self.carried: dict = {"wall_time": 0.0, "timings": {}, "counts": {}}
 
     @classmethod
     def resume(cls, out_dir: Path, overrides: list[str] | None = None, monitor=None) -> "Simulation":
@@ -95,6 +97,7 @@ class Simulation:
         sim.newton_total = meta["newton_total"]
         sim.dt_current = meta["dt_current"]
         sim.history = meta["history"]
+        sim.carried = meta.get("run_totals", sim.carried)
         if meta.get("writer") is not None and sim.problem.output.fields:
             sim.writer = VTKWriter(out_dir)
             sim.writer.count = meta["writer"]["count"]
@@ -311,17 +314,25 @@ class Simulation:
         res["run"] = {
             "version": __version__,
             "case": self.problem.name,
-            "wall_time": time.perf_counter() - self.wall_start,
             "steps": self.step,
             "newton_iterations": self.newton_total,
             "linear_solver": self.linear.name,
             "unknowns": self.system.layout.n_dofs,
             "final_time": self.t,
-            "timings": {**{k: round(v, 3) for k, v in self.system.timings.items()},
-                        **{k: round(v, 3) for k, v in self.linear.timings.items()}},
-            "counts": {**self.system.counts, **self.linear.counts},
+            **self.run_totals(),
         }
         return res
+
+    def run_totals(self) -> dict:
+        """Wall time, per-phase timings and counts of the whole run, the processes before a
+        resume included (carried in the checkpoint)."""
+        c = self.carried
+        timings = {**self.system.timings, **self.linear.timings}
+        counts = {**self.system.counts, **self.linear.counts}
+        return {"wall_time": c["wall_time"] + time.perf_counter() - self.wall_start,
+                "timings": {k: round(c["timings"].get(k, 0.0) + timings.get(k, 0.0), 3)
+                            for k in dict.fromkeys([*timings, *c["timings"]])},
+                "counts": {k: c["counts"].get(k, 0) + counts.get(k, 0) for k in dict.fromkeys([*counts, *c["counts"]])}}
 
     def finalize(self) -> dict:
         """Results dictionary; with an output folder also results.json and the figures (drawn

@@ -118,12 +118,19 @@ def test_damaged_or_mismatched_checkpoint_is_refused(tmp_path, capsys):
 
 def test_resume_without_the_field_files_lists_only_files_that_exist(tmp_path):
     """A run directory carried on without its vtu/ folder (case.toml and checkpoint.npz only):
-    the resumed run writes its new outputs, and fields.pvd lists those, not the missing ones."""
+    the resumed run writes its new outputs, and fields.pvd lists those, not the missing ones.
+    results.json reports the wall time, timings and counts of the whole run, both processes."""
     out = tmp_path / "run"
     assert main(["run", "sinking-disk", *SMALL, "--set", "time.t_end=0.04", "--out", str(out)]) == 0
+    first = json.loads((out / "results.json").read_text())["run"]
     for f in (out / "vtu").glob("*.vtu"):
         f.unlink()
     assert main(["resume", str(out), "--set", "time.t_end=0.08"]) == 0
+    whole = json.loads((out / "results.json").read_text())["run"]
+    assert whole["steps"] == 4 and whole["wall_time"] > first["wall_time"]
+    # one assembly per Newton iteration at least, of both processes
+    assert whole["counts"]["assembly"] >= whole["newton_iterations"] > first["newton_iterations"]
+    assert all(whole["timings"][k] >= first["timings"][k] for k in first["timings"])
     listed = re.findall(r'file="([^"]+)"', (out / "fields.pvd").read_text())
     assert listed and all((out / f).exists() for f in listed)
     assert len(listed) == len(list((out / "vtu").glob("*.vtu")))

@@ -45,6 +45,7 @@ def write_checkpoint(sim, directory: Path) -> Path:
         "t": sim.t,
         "step": sim.step,
         "newton_total": sim.newton_total,
+        "run_totals": sim.run_totals(),
         "dt_current": sim.dt_current,
         "history": sim.history,
         "writer": None if sim.writer is None else {"count": sim.writer.count, "entries": sim.writer.entries},
