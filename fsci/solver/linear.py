@@ -14,7 +14,8 @@
 Factorisation reuse: within one nonlinear solve the matrix changes little between Newton
 iterations. After the first factorisation of a step, a new system is first solved by GMRES
 preconditioned with the last factors (a PARDISO solve with the old matrix); only if that does
-not reach the relative true residual ``1e-10`` within ``max_krylov`` iterations is the new
+not reach the relative true residual asked for (``1e-10``, or Newton's forcing term where that
+is larger, :func:`fsci.solver.newton.forcing_term`) within ``max_krylov`` iterations is the new
 matrix factorised (only for systems of at least ``SMALL`` unknowns: below, a factorisation
 costs about as much as the three to four Krylov iterations it saves). The factors are never
 carried into the next step, so a restarted run stays
