@@ -930,7 +930,10 @@ QUANTITY = Variants(
                           Key("nu", Num(0.0, 0.5, hi_open=True), REQUIRED, "Poisson's ratio"),
                           Key("contact", Str(), None, "an earlier contact_profile quantity to compare with")),
         "interface_summary": _q("per-step interface data of a body (lengths in contact and wetted, forces); "
-                                "columns `<name>_*`.", BODY_NAME),
+                                "columns `<name>_*`.", BODY_NAME,
+                                Key("x_range", NumList(2, increasing=True), None,
+                                    "[x0, x1]: only interface points whose current x lies in it (e.g. one valve); "
+                                    "default: the whole interface", "length")),
         "fluid_pieces": _q("number of connected fluid regions; column `<name>`."),
         "body_centroid": _q("centre of mass of a body in its current configuration (mean of the current positions "
                             "over the reference area) and its current area; columns `<name>_x`, `_y`, `_area`.",

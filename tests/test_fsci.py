@@ -123,13 +123,18 @@ def sweep(n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     case = get_case("contact-sweep")
     case["parameters"]["n"] = n_steps
     case["output"] = {"every": 0, "figures": False, "fields": False}
+    # the block's interface summary split at its axis x = 0.5 (x_range)
+    case["quantities"] += [{"name": side, "type": "interface_summary", "body": "block", "x_range": xr}
+                           for side, xr in (("west", [0.0, 0.5]), ("east", [0.5, 1.0]))]
     sim = Simulation(problem_from_dict(case))
     first = []
     sim.step_hooks.append(lambda s, ctx, rep: first.append(rep.residuals[0]))
     sim.run()
-    t = np.array([h["time"] for h in sim.history])
-    force = np.array([h["block_force_fsi_y"] + h["block_force_contact_y"] for h in sim.history])
-    return t, force, np.array(first)
+    h = {k: np.array([row[k] for row in sim.history]) for k in sim.history[0]}
+    for col in ("force_fsi_y", "force_contact_y", "length_contact", "length_sc"):  # the halves make the whole
+        np.testing.assert_allclose(h["west_" + col] + h["east_" + col], h["block_" + col], rtol=1e-12, atol=1e-14)
+    assert (h["west_length_contact"] > 0).any() and (h["east_length_contact"] > 0).any()
+    return h["time"], h["block_force_fsi_y"] + h["block_force_contact_y"], np.array(first)
 
 
 def test_fsi_to_contact_sweep_is_continuous():

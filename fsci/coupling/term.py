@@ -534,11 +534,15 @@ class CouplingTerm:
         c = self.out[..., tk.O_CASE].ravel()
         return {f"case_{n}": int(np.sum(c == k + 1)) for k, n in enumerate(CASE_NAMES)}
 
-    def body_summary(self, system, b: int) -> dict[str, float]:
+    def body_summary(self, system, b: int, x_range: list[float] | None = None) -> dict[str, float]:
         """Interface force on body ``b`` split into the FSI part (case I) and the contact part
-        (cases II-IV), the length of its Γ^SC and of its C ≤ 0 part."""
+        (cases II-IV), the length of its Γ^SC and of its C ≤ 0 part; with ``x_range`` = [x0, x1]
+        only over the Gauss points whose current x lies in it."""
         out, body = self.samples()
         sel = out[body == b]
+        if x_range is not None:
+            inside = (sel[..., tk.O_X] >= x_range[0]) & (sel[..., tk.O_X] <= x_range[1])
+            sel = np.where(inside[..., None], sel, 0.0)  # weight 0 and case 0 outside
         w = sel[..., tk.O_W]
         case = sel[..., tk.O_CASE]
         fsi = case == tk.CASE_I

@@ -126,7 +126,10 @@ class QuantityEvaluator:
             if q.params.get("body") not in names or not s.extra_terms:
                 raise InputError(self._field(q, "body"), q.params.get("body"), "a body with a coupling boundary ("
                                  + ", ".join(names) + ")")
-            self._prepared[q.name] = names.index(q.params["body"])
+            x_range = q.params.get("x_range")
+            if x_range is not None and len(x_range) != 2:
+                raise InputError(self._field(q, "x_range"), x_range, "[x0, x1] with x0 < x1")
+            self._prepared[q.name] = (names.index(q.params["body"]), x_range)
         elif q.kind in ("body_centroid", "elastic_energy"):
             names = [b.name for b in s.solids]
             body = q.params.get("body")
@@ -231,7 +234,7 @@ class QuantityEvaluator:
             elif q.kind == "mass_balance":
                 out.update(mass_balance(s, q.name))
             elif q.kind == "interface_summary":
-                out.update({f"{q.name}_{k}": v for k, v in s.extra_terms[0].body_summary(s, self._prepared[q.name]).items()})
+                out.update({f"{q.name}_{k}": v for k, v in s.extra_terms[0].body_summary(s, *self._prepared[q.name]).items()})
             elif q.kind == "body_centroid":
                 x, y, area = body_centroid(self._prepared[q.name][0])
                 out.update({f"{q.name}_x": x, f"{q.name}_y": y, f"{q.name}_area": area})
