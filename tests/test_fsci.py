@@ -256,7 +256,7 @@ def test_pump_compression_shuts_the_inflow_valve_by_contact(pump_compression):
     """First compression: fluid leaves through the outflow side in the design direction (−x), the
     outflow (left) valve opens (tip faces 0.006 apart at rest, measured 0.0224), the inflow
     (right) valve shuts by contact (cases II > 0 and the fluid split in two pieces from
-    t ≈ 0.022) and carries a pressure jump (measured 12.5 at t = 0.026, asserted > 5); Newton
+    t ≈ 0.022; all of the upper body's contact lies in that valve) and carries a pressure jump (measured 12.5 at t = 0.026, asserted > 5); Newton
     converges in every step (no step cut) and the mass balance Φ¹ holds at solver tolerance
     (measured 8e-9 of the flux, asserted 1e-7)."""
     r = pump_compression
@@ -269,6 +269,10 @@ def test_pump_compression_shuts_the_inflow_valve_by_contact(pump_compression):
     assert r["flow_out"][-1] > 0.0 and np.sum(r["flow_out"] * r["dt"]) > 0.0  # outward through x = 0: −x
     assert opening["left"][-1] > 0.015
     assert shut.any() and np.all(shut[np.argmax(shut):]) and np.all(r["case_II"][shut] > 0)
+    # the contact is in the inflow valve only (x_range summaries of the upper body)
+    assert np.all(r["valve_right_length_contact"][shut] > 0) and np.all(r["valve_left_length_contact"] == 0)
+    assert np.all(r["chamber_length_contact"] == 0)
+    np.testing.assert_allclose(r["valve_right_length_contact"], r["upper_length_contact"], rtol=1e-12)
     assert r["p_right_valve_chamber"][-1] > r["p_right_valve_in"][-1] + 5.0
     assert np.all(r["mass_err1"] < 1e-7 * phi)
 

@@ -132,6 +132,12 @@ def pump() -> dict[str, Any]:
             {"name": "mass", "type": "mass_balance"},
             {"name": "upper", "type": "interface_summary", "body": "upper"},
             {"name": "lower", "type": "interface_summary", "body": "lower"},
+            # contact per valve and in the chamber, seen from the upper body
+            *({"name": f"{where}", "type": "interface_summary", "body": "upper", "x_range": xr}
+              for where, xr in (("valve_left", [0.2, 0.4]), ("chamber", [0.4, 1.1]), ("valve_right", [1.15, 1.35]))),
+            # the chamber walls at mid-chamber: the gap there is 2 H + upper - lower
+            *({"name": f"wall_{b}", "type": "point_displacement", "body": b, "component": 1,
+               "point": [0.5 * (CH0 + CH1), sgn * H]} for b, sgn in (("upper", 1), ("lower", -1))),
             # pressures against the outlet (x = 0.02): chamber, and in front of / behind each valve
             *({"name": f"p_{where}", "type": "pressure_difference", "points": [[x, 0.0], [0.02, 0.0]]}
               for where, x in (("chamber", 0.75), ("left_valve_out", 0.20), ("left_valve_chamber", 0.36),
