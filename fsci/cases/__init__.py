@@ -51,7 +51,7 @@ CASES: dict[str, BuiltinCase] = {
                         "the valve zones 4 times)", pump.pump, "~90 min"),
     "squeezed": BuiltinCase("Paper Sec. 4.3: elastic body carried by channel flow and squeezed through an elastic "
                             "structure with three barriers (reconstructed; --set n=20 --set hb=0.03 for a coarse grid; "
-                            "wall time estimated from the run to t = 0.00856)", squeezed.squeezed, "~5 h"),
+                            "wall time of the whole run, shared cores)", squeezed.squeezed, "~6 h"),
     "lift-off": BuiltinCase("Elastic block on a slab in fluid lifts off when the ambient pressure reaches its load "
                             "(FSCI, extension)", fsci_checks.lift_off, "~1 min"),
     "contact-sweep": BuiltinCase("Quasi-static push through fluid onto a slab and back: continuity of the FSI -> "
