@@ -119,7 +119,8 @@ def test_case_iii_variants_differ_only_in_case_iii():
 def sweep(n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The built-in ``contact-sweep`` with steps of ``1/n_steps`` of the push. Returns the load
     level, the total vertical interface force on the block and the first Newton residual of
-    every step."""
+    every step; asserts on the way that the summaries of the block's two halves (``x_range``)
+    add up to the whole in every step and that both halves are in contact at some step."""
     case = get_case("contact-sweep")
     case["parameters"]["n"] = n_steps
     case["output"] = {"every": 0, "figures": False, "fields": False}
