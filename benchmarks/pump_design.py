@@ -24,14 +24,11 @@ from fsci.simulation import Simulation
 
 def dry_case(load: float, steps: int) -> dict:
     """The pump's structure as a dry contact case, the Γ^P pressure ramped to ``load``."""
-    bodies = []
-    for name, sign in (("upper", 1), ("lower", -1)):
-        body = pump.structure(name, sign, pump.T_WALL, "=0.02", "=0.0065")
+    bodies = pump.pump()["bodies"]  # upper, lower
+    for body in bodies:
         for key in ("extends_outside", "interface", "slip_length"):  # fluid-side keys
             body.pop(key)
-        if sign > 0:
-            body["neumann"] = [{"boundary": "load", "type": "pressure", "value": f"{load}*t"}]
-        bodies.append(body)
+    bodies[0]["neumann"] = [{"boundary": "load", "type": "pressure", "value": f"{load}*t"}]
     cx = 0.5 * (pump.CH0 + pump.CH1)
     return {"name": "pump-dry", "kind": "contact", "bodies": bodies,
             "contact": {"gamma0": 1.0, "weighting": "harmonic"},

@@ -194,14 +194,17 @@ class Points(Spec):
 
 @dataclass(frozen=True)
 class NumList(Spec):
-    """A list of finite numbers (at least ``min_len``; strictly increasing if ``increasing``)."""
+    """A list of finite numbers (at least ``min_len``, at most ``max_len``; strictly increasing
+    if ``increasing``)."""
 
     min_len: int = 1
     increasing: bool = False
     item: Spec = Num()
+    max_len: int | None = None
 
     def check(self, value: Any, where: str, ctx: Context) -> list[Any]:
-        if not isinstance(value, list) or len(value) < self.min_len:
+        if (not isinstance(value, list) or len(value) < self.min_len
+                or (self.max_len is not None and len(value) > self.max_len)):
             raise InputError(where, value, self.describe())
         out = [self.item.check(x, f"{where}[{i}]", ctx) for i, x in enumerate(value)]
         if self.increasing and any(b <= a for a, b in zip(out, out[1:])):
@@ -210,7 +213,9 @@ class NumList(Spec):
 
     def describe(self) -> str:
         what = "strictly increasing " if self.increasing else ""
-        return f"list of ≥ {self.min_len} {what}{self.item.describe()}s"
+        count = (f"{self.min_len}" if self.max_len == self.min_len else
+                 f"≥ {self.min_len}" if self.max_len is None else f"{self.min_len} to {self.max_len}")
+        return f"list of {count} {what}{self.item.describe()}s"
 
 
 @dataclass(frozen=True)
@@ -931,7 +936,7 @@ QUANTITY = Variants(
                           Key("contact", Str(), None, "an earlier contact_profile quantity to compare with")),
         "interface_summary": _q("per-step interface data of a body (lengths in contact and wetted, forces); "
                                 "columns `<name>_*`.", BODY_NAME,
-                                Key("x_range", NumList(2, increasing=True), None,
+                                Key("x_range", NumList(2, increasing=True, max_len=2), None,
                                     "[x0, x1]: only interface points whose current x lies in it (e.g. one valve); "
                                     "default: the whole interface", "length")),
         "fluid_pieces": _q("number of connected fluid regions; column `<name>`."),

@@ -133,7 +133,7 @@ def pump() -> dict[str, Any]:
             {"name": "upper", "type": "interface_summary", "body": "upper"},
             {"name": "lower", "type": "interface_summary", "body": "lower"},
             # contact per valve and in the chamber, seen from the upper body
-            *({"name": f"{where}", "type": "interface_summary", "body": "upper", "x_range": xr}
+            *({"name": where, "type": "interface_summary", "body": "upper", "x_range": xr}
               for where, xr in (("valve_left", [0.2, 0.4]), ("chamber", [0.4, 1.1]), ("valve_right", [1.15, 1.35]))),
             # the chamber walls at mid-chamber: the gap there is 2 H + upper - lower
             *({"name": f"wall_{b}", "type": "point_displacement", "body": b, "component": 1,
