@@ -47,8 +47,9 @@ CASES: dict[str, BuiltinCase] = {
     "moving-cylinder": BuiltinCase("Cylinder with prescribed oscillation and pulsation, mass balance (45)-(46)",
                                    moving_cylinder.moving_cylinder, "~20 s"),
     "pump": BuiltinCase("Paper Sec. 4.2: elastic valve pump, chamber squeezed periodically, two two-flap valves "
-                        "(reconstructed; --set A2=1 for A = 1 throughout; the paper's grid, --set r=4 refines "
-                        "the valve zones 4 times)", pump.pump, "~90 min"),
+                        "(reconstructed; --set A2=1 for A = 1 throughout; the valve zones 4 times finer than the "
+                        "paper's grid, --set r=1 for the paper's grid; estimated from its first steps)", pump.pump,
+                        "~3 h"),
     "squeezed": BuiltinCase("Paper Sec. 4.3: elastic body carried by channel flow and squeezed through an elastic "
                             "structure with three barriers (reconstructed; --set n=20 --set hb=0.03 for a coarse grid; "
                             "wall time of the whole run, shared cores)", squeezed.squeezed, "~6 h"),
