@@ -41,6 +41,39 @@ def per_cycle(t: np.ndarray, dt: np.ndarray, q: np.ndarray) -> list[tuple[int, f
     return out
 
 
+def intervals(t: np.ndarray, on: np.ndarray) -> list[tuple[float, float]]:
+    """Time intervals [first, last] of the runs of consecutive steps where ``on`` holds."""
+    edges = np.diff(np.concatenate([[0], on.astype(int), [0]]))
+    return [(float(t[a]), float(t[b - 1])) for a, b in zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0])]
+
+
+def events(h: dict[str, np.ndarray]) -> None:
+    """Per load cycle: when each valve is shut by contact and the jump it carries, the smallest
+    gap between the chamber walls and when they touch, flaps that snap through (tip swung to +x
+    by more than the flap's reach, 0.06), and the largest per-piece mass imbalance."""
+    t = h["time"]
+    phi = np.abs(h["mass_phi_solid"]).max()
+    jump = {"right": h["p_right_valve_chamber"] - h["p_right_valve_in"],
+            "left": h["p_left_valve_out"] - h["p_left_valve_chamber"]}
+    print("| cycle | inflow valve shut (contact) | its largest jump | outflow valve shut | its largest jump | "
+          "smallest wall gap | walls touch | flaps snapped through | largest per-piece imbalance / flux |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    fmt = lambda iv: ", ".join(f"{a:.4g}–{b:.4g}" for a, b in iv) or "—"  # noqa: E731
+    for k in range(int(np.ceil(t[-1] / PERIOD - 1e-9))):
+        m = (t > k * PERIOD + 1e-12) & (t <= (k + 1) * PERIOD + 1e-12)
+        row = [str(k + 1)]
+        for v in ("right", "left"):
+            shut = h[f"valve_{v}_length_contact"] > 0
+            row += [fmt(intervals(t[m], shut[m])), f"{jump[v][m & shut].max():.3g}" if (m & shut).any() else "—"]
+        gap = 2 * 0.05 + h["wall_upper"] - h["wall_lower"]
+        row += [f"{gap[m].min():.4g}", fmt(intervals(t[m], h["chamber_length_contact"][m] > 0))]
+        snapped = [f"{v} {b} {fmt(intervals(t[m], h[f'tip_{v}_{b}_x'][m] > 0.06))}"
+                   for v in ("left", "right") for b in ("upper", "lower")
+                   if f"tip_{v}_{b}_x" in h and (h[f"tip_{v}_{b}_x"][m] > 0.06).any()]
+        row += ["; ".join(snapped) or "—", f"{h['mass_err1_pieces'][m].max() / phi:.2g}"]
+        print("| " + " | ".join(row) + " |")
+
+
 def report(run: Path, fig_dir: Path) -> None:
     import matplotlib
 
@@ -62,6 +95,8 @@ def report(run: Path, fig_dir: Path) -> None:
     cin = dict((k, v) for k, v, _ in per_cycle(t, dt, q_in))
     for k, v, done in per_cycle(t, dt, q_out):
         print(f"| {k} | {1.0 if k <= 3 else a2:g} | {v:.4g} | {cin[k]:.4g} | {'yes' if done else 'no'} |")
+    if "wall_upper" in h:  # columns added on 2026-12-04
+        events(h)
     opening = {v: TIP_GAP + h[f"tip_{v}_upper"] - h[f"tip_{v}_lower"] for v in ("left", "right")}
     for v, g in opening.items():
         closed = t[g < 0.2 * TIP_GAP]
@@ -188,7 +223,7 @@ def geometry(fig_dir: Path) -> None:
     cx = 0.5 * (pump.CH0 + pump.CH1)
     ax.annotate("Γ^P (cavity, pressure load)", (cx, pump.H + pump.T_WALL + 2 * pump.R_P), (cx + 0.25, 0.43),
                 arrowprops={"arrowstyle": "->"}, fontsize=8)
-    ax.text(0.02, -0.165, "fluid box 240 × 54 cells", color="tab:blue", fontsize=8)
+    ax.text(0.02, -0.165, "fluid box (the paper's 240 × 54 cells; valve zones 4 times finer)", color="tab:blue", fontsize=8)
     ax.text(0.01, 0.19, "Γ^out (x = 0)", fontsize=8)
     ax.text(1.36, 0.19, "Γ^in (x = 1.5)", fontsize=8)
     ax.set_title(f"chamber x ∈ [{pump.CH0}, {pump.CH1}], half-height {pump.H}; channel half-height {pump.C}; "

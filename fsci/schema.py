@@ -901,7 +901,8 @@ QUANTITY = Variants(
                          Key("component", COMPONENT, 0, "0: x, 1: y"), *FORCE_KEYS),
         "body_moment": _q("fluid moment about `about`, counter-clockwise positive; column `<name>`.",
                           _force_bodies(), Key("about", Vec(), [0.0, 0.0], "moment point", "length"), *FORCE_KEYS),
-        "pressure_difference": _q("p(first point) − p(second point); column `<name>`.",
+        "pressure_difference": _q("p(first point) − p(second point); column `<name>`; NaN while a moving body "
+                                  "covers a point.",
                                   Key("points", Points(2), REQUIRED, "two points in the fluid", "length")),
         "flow_rate": _q("∫ v·n over the physical part of a box side (paper eq. (44)); column `<name>`.",
                         Key("boundary", Str(SIDES), REQUIRED, "a side of the fluid box")),

@@ -370,3 +370,24 @@ def test_fsi1_grid_refines_the_bar_surfaces_and_tip(m, r, shift):
             for d in (-0.99 * h, 0.0, 0.99 * h):
                 k = np.searchsorted(axis, v + d) - 1
                 assert axis[k + 1] - axis[k] == pytest.approx(h / r, rel=1e-9), (v, d)
+
+
+def test_a_pressure_probe_a_body_moves_over_reads_nan():
+    """A pressure probe is checked to lie in the fluid at the start; a body may still move over
+    it (the pump's chamber wall does). There the nodes around it keep the values they last had,
+    a plausible but meaningless pressure: the quantity is NaN while the probe is covered, and a
+    pressure difference again once the body has left (the disk of ``sinking-disk``, radius 0.1
+    at (0.5, 1.0), moved down by 0.25 over a probe at (0.5, 0.8), then back)."""
+    case = get_case("sinking-disk")
+    case["quantities"] = [{"name": "dp", "type": "pressure_difference", "points": [[0.5, 0.8], [0.5, 1.4]]}]
+    case.pop("reference", None)
+    sim = Simulation(problem_from_dict(case))
+    system, disk = sim.system, sim.system.solids[0]
+    system.fluid.P[:] = system.fluid.grid.nodes[:, 1]  # p = y: the difference is -0.6 where both are fluid
+    assert sim.quantities.step_values()["dp"] == pytest.approx(-0.6)
+    for shift, covered in ((-0.25, True), (0.0, False)):
+        disk.U[:, 1] = shift
+        system.update_cut()
+        system.fluid.P[:] = system.fluid.grid.nodes[system.fluid.vnode_node, 1]
+        dp = sim.quantities.step_values()["dp"]
+        assert np.isnan(dp) if covered else dp == pytest.approx(-0.6)

@@ -142,14 +142,18 @@ def pump() -> dict[str, Any]:
             # the chamber walls at mid-chamber: the gap there is 2 H + upper - lower
             *({"name": f"wall_{b}", "type": "point_displacement", "body": b, "component": 1,
                "point": [0.5 * (CH0 + CH1), sgn * H]} for b, sgn in (("upper", 1), ("lower", -1))),
-            # pressures against the outlet (x = 0.02): chamber, and in front of / behind each valve
-            *({"name": f"p_{where}", "type": "pressure_difference", "points": [[x, 0.0], [0.02, 0.0]]}
-              for where, x in (("chamber", 0.75), ("left_valve_out", 0.20), ("left_valve_chamber", 0.36),
-                               ("right_valve_chamber", 1.15), ("right_valve_in", 1.32))),
-            # flap tips: the valve opening is 2 FLAP_TIP + (u_y upper) - (u_y lower)
-            *({"name": f"tip_{v}_{b}", "type": "point_displacement", "body": b, "component": 1,
+            # pressures against the outlet (x = 0.02): chamber (0.01 above its lower wall: the upper
+            # wall comes down past the axis), and in front of / behind each valve
+            *({"name": f"p_{where}", "type": "pressure_difference", "points": [[x, y], [0.02, 0.0]]}
+              for where, x, y in (("chamber", 0.75, 0.01 - H), ("left_valve_out", 0.20, 0.0),
+                                  ("left_valve_chamber", 0.36, 0.0), ("right_valve_chamber", 1.15, 0.0),
+                                  ("right_valve_in", 1.32, 0.0))),
+            # flap tips: the valve opening is 2 FLAP_TIP + (u_y upper) - (u_y lower); u_x shows a
+            # flap that snaps through (its tip swings to +x)
+            *({"name": f"tip_{v}_{b}{suffix}", "type": "point_displacement", "body": b, "component": comp,
                "point": [xa - FLAP_DX + 0.5 * FLAP_W, sgn * (FLAP_TIP + 0.0005)]}
-              for v, xa in zip(("left", "right"), VALVES) for b, sgn in (("upper", 1), ("lower", -1))),
+              for v, xa in zip(("left", "right"), VALVES) for b, sgn in (("upper", 1), ("lower", -1))
+              for suffix, comp in (("", 1), ("_x", 0))),
             {"name": "pieces", "type": "fluid_pieces"},
         ],
         "output": {"every": 50},

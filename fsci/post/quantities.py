@@ -4,7 +4,7 @@ Kinds (``[[quantities]]`` in a case file):
 
 ``point_displacement``  ``body``, ``point`` (reference coordinates), ``component`` (0/1):
                         displacement of a material point.
-``pressure_difference`` ``points = [[x1, y1], [x2, y2]]``: p(x1) - p(x2).
+``pressure_difference`` ``points = [[x1, y1], [x2, y2]]``: p(x1) - p(x2) (NaN while a body covers one).
 ``flow_rate``           ``boundary`` (a side of the fluid box): ∫ v·n dΓ, paper (44).
 ``oscillation``         ``of`` (another quantity): over the last full period of its history,
                         ``<name>_mean``, ``<name>_amplitude``, ``<name>_period``,
@@ -216,7 +216,10 @@ class QuantityEvaluator:
             elif q.kind == "pressure_difference":
                 pts = np.asarray(q.params.get("points"), float).reshape(2, 2)
                 _, p = _fluid_interpolate(s.fluid, pts)
-                out[q.name] = float(p[0] - p[1])
+                # a body moved over a probe: there is no fluid pressure there (the nodes around
+                # it keep the values they had, which would read as a plausible pressure)
+                covered = s.cut is not None and not shapely.intersects_xy(s.cut.fluid, pts[:, 0], pts[:, 1]).all()
+                out[q.name] = float("nan") if covered else float(p[0] - p[1])
             elif q.kind == "flow_rate":
                 out[q.name] = flow_rate(s.fluid, q.params["boundary"])
             elif q.kind in ("body_force", "body_moment"):
