@@ -21,9 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
+from fsci.cases import pump as case
+
 ROOT = Path(__file__).resolve().parents[1]
 PERIOD = 0.05
-TIP_GAP = 2 * 0.003  # distance of the two tip faces at rest (fsci/cases/pump.py FLAP_TIP)
+TIP_GAP = 2 * case.FLAP_TIP  # distance of the two tip faces at rest
 
 
 def load(run: Path) -> dict[str, np.ndarray]:
@@ -50,7 +52,7 @@ def intervals(t: np.ndarray, on: np.ndarray) -> list[tuple[float, float]]:
 def events(h: dict[str, np.ndarray]) -> None:
     """Per load cycle: when each valve is shut by contact and the jump it carries, the smallest
     gap between the chamber walls and when they touch, flaps that snap through (tip swung to +x
-    by more than the flap's reach, 0.06), and the largest per-piece mass imbalance."""
+    by more than the flap's reach ``FLAP_DX``), and the largest per-piece mass imbalance."""
     t = h["time"]
     phi = np.abs(h["mass_phi_solid"]).max()
     jump = {"right": h["p_right_valve_chamber"] - h["p_right_valve_in"],
@@ -65,11 +67,11 @@ def events(h: dict[str, np.ndarray]) -> None:
         for v in ("right", "left"):
             shut = h[f"valve_{v}_length_contact"] > 0
             row += [fmt(intervals(t[m], shut[m])), f"{jump[v][m & shut].max():.3g}" if (m & shut).any() else "—"]
-        gap = 2 * 0.05 + h["wall_upper"] - h["wall_lower"]
+        gap = 2 * case.H + h["wall_upper"] - h["wall_lower"]
         row += [f"{gap[m].min():.4g}", fmt(intervals(t[m], h["chamber_length_contact"][m] > 0))]
-        snapped = [f"{v} {b} {fmt(intervals(t[m], h[f'tip_{v}_{b}_x'][m] > 0.06))}"
-                   for v in ("left", "right") for b in ("upper", "lower")
-                   if f"tip_{v}_{b}_x" in h and (h[f"tip_{v}_{b}_x"][m] > 0.06).any()]
+        swung = {f"{v} {b}": h[f"tip_{v}_{b}_x"][m] > case.FLAP_DX
+                 for v in ("left", "right") for b in ("upper", "lower") if f"tip_{v}_{b}_x" in h}
+        snapped = [f"{flap} {fmt(intervals(t[m], on))}" for flap, on in swung.items() if on.any()]
         row += ["; ".join(snapped) or "—", f"{h['mass_err1_pieces'][m].max() / phi:.2g}"]
         print("| " + " | ".join(row) + " |")
 
@@ -209,7 +211,7 @@ def geometry(fig_dir: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from fsci.cases import get_case, pump
+    from fsci.cases import get_case
     from fsci.config import problem_from_dict
     from fsci.post.figures import draw_case
 
@@ -220,20 +222,20 @@ def geometry(fig_dir: Path) -> None:
     ax = axes[0]
     ax.set_xlim(-0.08, 1.58)
     ax.set_ylim(-0.45, 0.45)
-    cx = 0.5 * (pump.CH0 + pump.CH1)
-    ax.annotate("Γ^P (cavity, pressure load)", (cx, pump.H + pump.T_WALL + 2 * pump.R_P), (cx + 0.25, 0.43),
+    cx = 0.5 * (case.CH0 + case.CH1)
+    ax.annotate("Γ^P (cavity, pressure load)", (cx, case.H + case.T_WALL + 2 * case.R_P), (cx + 0.25, 0.43),
                 arrowprops={"arrowstyle": "->"}, fontsize=8)
     ax.text(0.02, -0.165, "fluid box (the paper's 240 × 54 cells; valve zones 4 times finer)", color="tab:blue", fontsize=8)
     ax.text(0.01, 0.19, "Γ^out (x = 0)", fontsize=8)
     ax.text(1.36, 0.19, "Γ^in (x = 1.5)", fontsize=8)
-    ax.set_title(f"chamber x ∈ [{pump.CH0}, {pump.CH1}], half-height {pump.H}; channel half-height {pump.C}; "
-                 f"wall over the chamber {pump.T_WALL}; cavity radius {pump.R_P}", fontsize=9)
+    ax.set_title(f"chamber x ∈ [{case.CH0}, {case.CH1}], half-height {case.H}; channel half-height {case.C}; "
+                 f"wall over the chamber {case.T_WALL}; cavity radius {case.R_P}", fontsize=9)
     ax = axes[1]  # the left valve, enlarged
-    xa = pump.VALVES[0]
+    xa = case.VALVES[0]
     ax.set_xlim(xa - 0.12, xa + 0.07)
     ax.set_ylim(-0.045, 0.045)
-    ax.set_title(f"valve (left; the right one at x = {pump.VALVES[1]} is the same): flaps {pump.FLAP_W} thick, "
-                 f"reaching {pump.FLAP_DX} in −x, tips ±{pump.FLAP_TIP}", fontsize=9)
+    ax.set_title(f"valve (left; the right one at x = {case.VALVES[1]} is the same): flaps {case.FLAP_W} thick, "
+                 f"reaching {case.FLAP_DX} in −x, tips ±{case.FLAP_TIP}", fontsize=9)
     fig.tight_layout()
     fig_dir.mkdir(parents=True, exist_ok=True)
     fig.savefig(fig_dir / "pump_geometry.png", dpi=130)

@@ -16,9 +16,9 @@ Chosen here (docs/cases/pump.md, fixed for every run):
 * channel half-height ``C`` = 0.03 at inlet and outlet; chamber x ∈ [0.45, 1.05], half-height
   ``H`` = 0.05, joined to the channel by straight ramps of length 0.06;
 * Γ^P: a circular cavity (radius 0.25) in the upper body over the chamber, leaving a wall of
-  thickness ``T_WALL`` = 0.015 over it (stiff enough that the walls do not touch at A = 1, soft
-  enough that they can at A = 1.5; ``benchmarks/pump_design.py``); the pressure in the cavity pushes the wall into the chamber
-  (the body's key ``dry_cavities``: the cavity is not fluid);
+  thickness ``T_WALL`` = 0.015 over it (dry, it does not reach the lower wall at A = 1 and
+  touches it at A = 1.5; ``benchmarks/pump_design.py``); the pressure in the cavity pushes the
+  wall into the chamber (the body's key ``dry_cavities``: the cavity is not fluid);
 * each valve: two flaps (0.035 wide along x, 0.014 thick across, length ≈ 0.07) attached to the channel walls and
   inclined towards -x, their tips 0.006 apart at rest: flow in -x opens them, flow in +x presses
   the tips together (the valve closes by contact); valves at x ≈ 0.3 (outflow side) and 1.25
