@@ -2,7 +2,8 @@
 
 A failing Newton solve restores the state of the step start and retries with a smaller step
 (``solver.step_cut_factor``, at most ``solver.max_step_cuts`` times, never below
-``solver.dt_min``); after success the step grows back towards the scheduled size. If the step
+``solver.dt_min``); after ``solver.steps_before_growth`` converged steps the step grows back
+towards the scheduled size. If the step
 cannot be completed, the results computed so far are written and
 :class:`fsci.errors.SolverError` is raised.
 
@@ -63,6 +64,7 @@ class Simulation:
         self.step = 0
         self.newton_total = 0
         self.dt_current: float | None = None
+        self.steps_at_dt = 0  # converged steps at the current reduced size (solver.steps_before_growth)
         self.wall_start = time.perf_counter()
         self.last_checkpoint = self.wall_start
         self.writer = None
@@ -96,6 +98,7 @@ class Simulation:
         sim.step = meta["step"]
         sim.newton_total = meta["newton_total"]
         sim.dt_current = meta["dt_current"]
+        sim.steps_at_dt = meta.get("steps_at_dt", 0)
         sim.history = meta["history"]
         sim.carried = meta.get("run_totals", sim.carried)
         if meta.get("writer") is not None and sim.problem.output.fields:
@@ -187,9 +190,13 @@ class Simulation:
         self.t = ctx.t_new
         self.step += 1
         dt_nom, _ = self.nominal_dt(self.t - 0.5 * dt)
-        self.dt_current = None if cuts == 0 and self.dt_current is None else min(dt_nom, dt / p.solver.step_cut_factor)
-        if self.dt_current is not None and self.dt_current >= dt_nom:
-            self.dt_current = None
+        if cuts or self.dt_current is not None:  # off the scheduled size: grow back step by step
+            self.steps_at_dt = 1 if cuts else self.steps_at_dt + 1
+            grow = self.steps_at_dt >= p.solver.steps_before_growth
+            self.dt_current = min(dt_nom, dt / p.solver.step_cut_factor if grow else dt)
+            self.steps_at_dt = 0 if grow else self.steps_at_dt
+            if self.dt_current >= dt_nom:
+                self.dt_current = None
         row = {"time": self.t, "step": self.step, "dt": dt, "newton_iterations": rep.iterations}
         row.update(row_values)
         self.history.append(row)
@@ -201,12 +208,14 @@ class Simulation:
         """Steps left on the time grid: each segment at its scheduled step size; after a
         step-size cut the current step grows back as :meth:`advance` lets it."""
         grow = 1.0 / self.problem.solver.step_cut_factor
-        t, n, d = self.t, 0, self.dt_current
+        t, n, d, k = self.t, 0, self.dt_current, self.steps_at_dt
         for end, dt in self.problem.time.segments:
             if t >= end - EPS_T * max(1.0, abs(end)):
                 continue
             while d is not None and d < dt and t < end:
-                t, n, d = t + d, n + 1, min(dt, d * grow)
+                t, n, k = t + d, n + 1, k + 1
+                if k >= self.problem.solver.steps_before_growth:
+                    d, k = min(dt, d * grow), 0
             if t < end:
                 n += math.ceil((end - t) / dt - 1e-9)
                 t = end

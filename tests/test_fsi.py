@@ -391,3 +391,22 @@ def test_a_pressure_probe_a_body_moves_over_reads_nan():
         system.fluid.P[:] = system.fluid.grid.nodes[system.fluid.vnode_node, 1]
         dp = sim.quantities.step_values()["dp"]
         assert np.isnan(dp) if covered else dp == pytest.approx(-0.6)
+
+
+def test_after_a_cut_the_step_grows_back_only_after_steps_before_growth_steps(monkeypatch, tmp_path):
+    """Step 2 (t = 0.02) fails at Δt = 0.02: it is taken with 0.01, and with
+    ``solver.steps_before_growth = 3`` the step stays 0.01 for three converged steps before it
+    grows back to 0.02 (with the default 1 it grows at once, the test above), reaching t_end =
+    0.11 on the shifted grid; the remaining step count of the monitor follows the same rule."""
+    _fail_newton_when(monkeypatch, lambda ctx: abs(ctx.t_old - 0.02) < 1e-12 and abs(ctx.dt - 0.02) < 1e-12)
+    case = get_case("sinking-disk")
+    for o in [*SINK_SMALL, "time.t_end=0.11", "solver.steps_before_growth=3"]:
+        apply_override(case, o)
+    sim = Simulation(problem_from_dict(case))
+    counts = []
+    sim.step_hooks.append(lambda s, ctx, rep: counts.append(s.step + s.remaining_steps()))
+    sim.run()
+    dts = [row["dt"] for row in sim.history]
+    assert dts == pytest.approx([0.02, 0.01, 0.01, 0.01, 0.02, 0.02, 0.02])
+    assert sim.t == pytest.approx(0.11)
+    assert counts[1:] == [7] * 6  # from the cut on, steps taken + remaining = the steps actually taken

@@ -47,6 +47,7 @@ def write_checkpoint(sim, directory: Path) -> Path:
         "newton_total": sim.newton_total,
         "run_totals": sim.run_totals(),
         "dt_current": sim.dt_current,
+        "steps_at_dt": sim.steps_at_dt,
         "history": sim.history,
         "writer": None if sim.writer is None else {"count": sim.writer.count, "entries": sim.writer.entries},
         "base_dir": None if sim.base_dir is None else str(sim.base_dir),
