@@ -191,12 +191,8 @@ class Simulation:
         self.step += 1
         dt_nom, _ = self.nominal_dt(self.t - 0.5 * dt)
         if cuts or self.dt_current is not None:  # off the scheduled size: grow back step by step
-            self.steps_at_dt = 1 if cuts else self.steps_at_dt + 1
-            grow = self.steps_at_dt >= p.solver.steps_before_growth
-            self.dt_current = min(dt_nom, dt / p.solver.step_cut_factor if grow else dt)
-            self.steps_at_dt = 0 if grow else self.steps_at_dt
-            if self.dt_current >= dt_nom:
-                self.dt_current = None
+            d, self.steps_at_dt = self._after_reduced_step(dt, 0 if cuts else self.steps_at_dt, dt_nom)
+            self.dt_current = None if d >= dt_nom else d
         row = {"time": self.t, "step": self.step, "dt": dt, "newton_iterations": rep.iterations}
         row.update(row_values)
         self.history.append(row)
@@ -204,18 +200,25 @@ class Simulation:
             hook(self, ctx, rep)
         return ctx
 
+    def _after_reduced_step(self, dt: float, k: int, dt_nom: float) -> tuple[float, int]:
+        """Step size and count of converged steps at it after one more converged step of the
+        reduced size ``dt`` (``k`` before it): grown by 1/step_cut_factor (up to ``dt_nom``)
+        after ``solver.steps_before_growth`` such steps."""
+        k += 1
+        if k >= self.problem.solver.steps_before_growth:
+            return min(dt_nom, dt / self.problem.solver.step_cut_factor), 0
+        return dt, k
+
     def remaining_steps(self) -> int:
         """Steps left on the time grid: each segment at its scheduled step size; after a
         step-size cut the current step grows back as :meth:`advance` lets it."""
-        grow = 1.0 / self.problem.solver.step_cut_factor
         t, n, d, k = self.t, 0, self.dt_current, self.steps_at_dt
         for end, dt in self.problem.time.segments:
             if t >= end - EPS_T * max(1.0, abs(end)):
                 continue
             while d is not None and d < dt and t < end:
-                t, n, k = t + d, n + 1, k + 1
-                if k >= self.problem.solver.steps_before_growth:
-                    d, k = min(dt, d * grow), 0
+                t, n = t + d, n + 1
+                d, k = self._after_reduced_step(d, k, dt)
             if t < end:
                 n += math.ceil((end - t) / dt - 1e-9)
                 t = end
