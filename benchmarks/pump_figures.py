@@ -92,11 +92,16 @@ def report(run: Path, fig_dir: Path) -> None:
     import tomllib
 
     a2 = float(tomllib.loads((run / "case.toml").read_text(encoding="utf-8"))["parameters"]["A2"])
-    print("| cycle | A | volume out (design direction) | volume in | complete |")
-    print("|---|---|---|---|---|")
+    # periodicity: the change of the volume out per cycle against the cycle before (same A)
+    print("| cycle | A | volume out (design direction) | volume in | change of the volume out | complete |")
+    print("|---|---|---|---|---|---|")
     cin = dict((k, v) for k, v, _ in per_cycle(t, dt, q_in))
+    prev = None
     for k, v, done in per_cycle(t, dt, q_out):
-        print(f"| {k} | {1.0 if k <= 3 else a2:g} | {v:.4g} | {cin[k]:.4g} | {'yes' if done else 'no'} |")
+        a = 1.0 if k <= 3 else a2
+        change = f"{abs(v - prev[1]) / abs(prev[1]):.2%}" if prev and prev[0] == a and done else ""
+        print(f"| {k} | {a:g} | {v:.4g} | {cin[k]:.4g} | {change} | {'yes' if done else 'no'} |")
+        prev = (a, v)
     if "wall_upper" in h:  # columns added on 2026-12-04
         events(h)
     opening = {v: TIP_GAP + h[f"tip_{v}_upper"] - h[f"tip_{v}_lower"] for v in ("left", "right")}
@@ -113,7 +118,7 @@ def report(run: Path, fig_dir: Path) -> None:
     ax[0, 1].plot(t, vol_in, "--", label="∫ Q_in dt")
     ax[0, 1].set_ylabel("transported volume")
     for v, g in opening.items():
-        ax[1, 0].plot(t, g, label=f"{v} valve")
+        ax[1, 0].plot(t, g, label={"left": "outflow valve (left)", "right": "inflow valve (right)"}[v])
     ax[1, 0].set_ylabel("valve opening (tip distance)")
     ax[1, 1].plot(t, h["p_chamber"], label="chamber")
     for name in ("left_valve_out", "left_valve_chamber", "right_valve_chamber", "right_valve_in"):
@@ -127,13 +132,19 @@ def report(run: Path, fig_dir: Path) -> None:
         a.set_xlabel("t")
     fig.tight_layout()
     fig.savefig(fig_dir / "pump_history.png", dpi=120)
-    fig, ax = plt.subplots(figsize=(7, 3.5))
-    for body in ("upper", "lower"):
-        ax.plot(t, h[f"{body}_length_contact"], label=f"{body}: contact length (C ≤ 0)")
-    ax.plot(t, h["case_II"] + h["case_III"] + h["case_IV"], "k:", lw=0.8, label="points in cases II-IV")
-    ax.set_xlabel("t")
-    ax.set_yscale("symlog", linthresh=1e-3)
-    ax.legend(fontsize=7)
+    fig, ax = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True)
+    for part, label in (("valve_left", "outflow valve"), ("valve_right", "inflow valve"), ("chamber", "chamber walls")):
+        ax[0].plot(t, h[f"{part}_length_contact"], label=f"{label}: contact length (upper body)")
+    ax[0].set_ylabel("length in contact")
+    for c in ("II", "III", "IV"):
+        ax[1].plot(t, h[f"case_{c}"], lw=0.8, label=f"case {c}")
+    ax[1].set_ylabel("Gauss points")
+    ax[1].set_yscale("symlog", linthresh=1)
+    ax[1].set_xlabel("t")
+    for a in ax:
+        for k in range(1, int(t[-1] / PERIOD) + 1):
+            a.axvline(k * PERIOD, color="0.85", lw=0.6)
+        a.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(fig_dir / "pump_contact.png", dpi=120)
 
@@ -142,8 +153,9 @@ def snapshots(run: Path, fig_dir: Path) -> None:
     """Speed, pressure and interface tractions (FSI blue, contact red) at the outputs nearest to
     the characteristic instants of the last complete cycle at A = 1: compression (largest
     chamber pressure), the inflow valve shut (first step with two fluid pieces), suction
-    (lowest chamber pressure); and, if the run reached A = 1.5, the output nearest to the
-    largest flap-tip excursion after t = 0.15 (snap-through)."""
+    (lowest chamber pressure); and, if the run reached A = 1.5, the outputs nearest to the first
+    snap-through (else the largest flap-tip excursion) and to the first touch of the chamber
+    walls after t = 0.15."""
     from fsci.post.figures import snapshots_at
 
     h = load(run)
@@ -151,14 +163,25 @@ def snapshots(run: Path, fig_dir: Path) -> None:
     # the last complete cycle at A = 1 (t ≤ 0.15)
     k = max(1, min(3, int(np.floor(t[-1] / PERIOD + 1e-9))))
     c1 = (t > (k - 1) * PERIOD) & (t <= k * PERIOD)
-    wanted = [(f"compression (cycle {k})", t[c1][np.argmax(h["p_chamber"][c1])])]
+    # p_chamber is NaN while a body covers its probe
+    wanted = [(f"compression (cycle {k})", t[c1][np.nanargmax(h["p_chamber"][c1])])]
     if np.any(h["pieces"][c1] > 1):
         wanted.append((f"inflow valve shut (cycle {k})", t[c1][np.argmax(h["pieces"][c1] > 1)]))
-    wanted.append((f"suction (cycle {k})", t[c1][np.argmin(h["p_chamber"][c1])]))
+    wanted.append((f"suction (cycle {k})", t[c1][np.nanargmin(h["p_chamber"][c1])]))
     late = t > 0.15
     if late.any():
-        tips = np.column_stack([h[f"tip_{v}_{b}"] for v in ("left", "right") for b in ("upper", "lower")])
-        wanted.append(("largest flap excursion, A = 1.5", t[late][np.argmax(np.abs(tips[late]).max(axis=1))]))
+        # snap-through: the first step with a flap tip swung to +x by more than the flap's reach;
+        # without one, the largest flap-tip excursion
+        swing = np.column_stack([h[f"tip_{v}_{b}_x"] for v in ("left", "right") for b in ("upper", "lower")])
+        snapped = late & (swing.max(axis=1) > case.FLAP_DX)
+        if snapped.any():
+            wanted.append(("snap-through, A = 1.5", t[np.argmax(snapped)]))
+        else:
+            tips = np.column_stack([h[f"tip_{v}_{b}"] for v in ("left", "right") for b in ("upper", "lower")])
+            wanted.append(("largest flap excursion, A = 1.5", t[late][np.argmax(np.abs(tips[late]).max(axis=1))]))
+        touch = late & (h["chamber_length_contact"] > 0)
+        if touch.any():
+            wanted.append(("chamber walls touch, A = 1.5", t[np.argmax(touch)]))
     snapshots_at(run, wanted, fig_dir, "pump_snapshot", (0.15, 1.35, -0.07, 0.07), arrow_length=0.03)
 
 
