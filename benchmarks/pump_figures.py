@@ -131,7 +131,8 @@ def report(run: Path, fig_dir: Path) -> None:
     for a in ax[1]:
         a.set_xlabel("t")
     fig.tight_layout()
-    fig.savefig(fig_dir / "pump_history.png", dpi=120)
+    suffix = "_A1" if a2 == 1.0 else ""  # a run at A = 1 throughout (`--set A2=1`)
+    fig.savefig(fig_dir / f"pump_history{suffix}.png", dpi=120)
     fig, ax = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True)
     for part, label in (("valve_left", "outflow valve"), ("valve_right", "inflow valve"), ("chamber", "chamber walls")):
         ax[0].plot(t, h[f"{part}_length_contact"], label=f"{label}: contact length (upper body)")
@@ -146,16 +147,16 @@ def report(run: Path, fig_dir: Path) -> None:
             a.axvline(k * PERIOD, color="0.85", lw=0.6)
         a.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(fig_dir / "pump_contact.png", dpi=120)
+    fig.savefig(fig_dir / f"pump_contact{suffix}.png", dpi=120)
 
 
 def snapshots(run: Path, fig_dir: Path) -> None:
     """Speed, pressure and interface tractions (FSI blue, contact red) at the outputs nearest to
-    the characteristic instants of the last complete cycle at A = 1: compression (largest
-    chamber pressure), the inflow valve shut (first step with two fluid pieces), suction
-    (lowest chamber pressure); and, if the run reached A = 1.5, the outputs nearest to the first
-    snap-through (else the largest flap-tip excursion) and to the first touch of the chamber
-    walls after t = 0.15."""
+    the characteristic instants of the last complete cycle at A = 1: compression (the largest
+    pressure jump across the shut inflow valve; without a shut valve, the largest chamber
+    pressure) and suction (the same for the outflow valve; else the lowest chamber pressure);
+    and, if the run reached A = 1.5, the outputs nearest to the first snap-through (else the
+    largest flap-tip excursion) and to the first touch of the chamber walls after t = 0.15."""
     from fsci.post.figures import snapshots_at
 
     h = load(run)
@@ -163,11 +164,14 @@ def snapshots(run: Path, fig_dir: Path) -> None:
     # the last complete cycle at A = 1 (t ≤ 0.15)
     k = max(1, min(3, int(np.floor(t[-1] / PERIOD + 1e-9))))
     c1 = (t > (k - 1) * PERIOD) & (t <= k * PERIOD)
-    # p_chamber is NaN while a body covers its probe
-    wanted = [(f"compression (cycle {k})", t[c1][np.nanargmax(h["p_chamber"][c1])])]
-    if np.any(h["pieces"][c1] > 1):
-        wanted.append((f"inflow valve shut (cycle {k})", t[c1][np.argmax(h["pieces"][c1] > 1)]))
-    wanted.append((f"suction (cycle {k})", t[c1][np.nanargmin(h["p_chamber"][c1])]))
+    wanted = []
+    for phase, valve, jump, sign in (("compression", "inflow", h["p_right_valve_chamber"] - h["p_right_valve_in"], 1),
+                                     ("suction", "outflow", h["p_left_valve_out"] - h["p_left_valve_chamber"], -1)):
+        shut = c1 & (h[f"valve_{'right' if valve == 'inflow' else 'left'}_length_contact"] > 0)
+        if shut.any():
+            wanted.append((f"{phase}, {valve} valve shut (cycle {k})", t[shut][np.nanargmax(jump[shut])]))
+        else:  # p_chamber is NaN while a body covers its probe
+            wanted.append((f"{phase} (cycle {k})", t[c1][np.nanargmax(sign * h["p_chamber"][c1])]))
     late = t > 0.15
     if late.any():
         # snap-through: the first step with a flap tip swung to +x by more than the flap's reach;
@@ -200,7 +204,7 @@ def valve_gap(run: Path, fig_dir: Path) -> None:
     h = load(run)
     t = h["time"]
     k = max(1, min(3, int(np.floor(t[-1] / PERIOD + 1e-9))))
-    c = (t > (k - 1) * PERIOD) & (t <= k * PERIOD) & (h["pieces"] > 1)
+    c = (t > (k - 1) * PERIOD) & (t <= k * PERIOD) & (h["valve_right_length_contact"] > 0)
     if not c.any():
         return
     t0, t1 = t[c][0], t[c][-1]
