@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
-from fsci.solver.linear import PardisoSolver, available_backends
+from fsci.solver.linear import PardisoSolver, available_backends, right_preconditioned_gmres
 from fsci.solver.newton import forcing_term
 
 
@@ -17,6 +18,30 @@ def test_forcing_term_follows_the_newton_rate():
     assert forcing_term([1.0, 0.06], 0.9) == pytest.approx(0.9 * 0.06 ** 2)  # linear rate 0.06
     assert forcing_term([1.0, 5.0], 0.9) == 0.9  # residual grew: capped
     assert forcing_term([1.0, 0.06], 0.0) == 0.0  # switched off
+
+
+def test_right_preconditioned_gmres_stops_on_the_true_residual():
+    """The residual GMRES minimises with right preconditioning is the true one: the solve stops
+    once |b − A x| ≤ tol |b| (checked here against the true residual, and against the direct
+    solution), takes one step with the exact inverse as preconditioner, and gives up (None)
+    when the steps allowed are too few."""
+    A = _convection_diffusion(20, 0.5)
+    b = np.random.default_rng(1).standard_normal(A.shape[0])
+    exact = spla.spsolve(A.tocsc(), b)
+    lu = spla.splu(_convection_diffusion(20, 0.45).tocsc())  # factors of a nearby matrix
+    applied = []
+    def precondition(r):
+        applied.append(1)
+        return lu.solve(r)
+    for tol in (1e-3, 1e-10):
+        applied.clear()
+        x, steps = right_preconditioned_gmres(A, b, precondition, tol, 20)
+        assert x is not None and 1 < steps < 20 and len(applied) == steps  # one application per step
+        assert np.linalg.norm(A @ x - b) <= 1.01 * tol * np.linalg.norm(b)
+        assert np.linalg.norm(x - exact) <= 1e3 * tol * np.linalg.norm(exact)
+    x, steps = right_preconditioned_gmres(A, b, lambda r: spla.spsolve(A.tocsc(), r), 1e-12, 20)
+    assert steps == 1 and np.linalg.norm(A @ x - b) <= 1e-12 * np.linalg.norm(b)
+    assert right_preconditioned_gmres(A, b, precondition, 1e-10, 2) == (None, 2)
 
 
 def _convection_diffusion(n: int, shift: float) -> sp.csr_matrix:
