@@ -120,7 +120,7 @@ def cmd_resume(args) -> int:
         raise InputError("resume", str(out), "a run directory with case.toml and checkpoint.npz")
     for stale in out.glob(".*.tmp*"):  # temporary files of writes a kill interrupted
         stale.unlink(missing_ok=True)
-    return run_and_report(Simulation.resume(out, args.set, Monitor()), out, check=not args.no_check)
+    return run_and_report(Simulation.resume(out, args.set, Monitor(), first_dt=args.dt), out, check=not args.no_check)
 
 
 def cmd_sweep(args) -> int:
@@ -223,6 +223,9 @@ def parser() -> argparse.ArgumentParser:
     p = sub.add_parser("resume", help="continue a run from the checkpoint in its output directory")
     p.add_argument("dir")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a key, e.g. time.t_end")
+    p.add_argument("--dt", type=float, metavar="DT",
+                   help="size of the next step (at most the scheduled one; it grows back as after a step cut), "
+                        "e.g. for a run that stopped where every smaller step failed")
     p.add_argument("--no-check", action="store_true", help="exit 0 even if a reference check fails")
     p.set_defaults(func=cmd_resume)
     return ap

@@ -28,7 +28,7 @@ from typing import Callable, Iterator
 
 
 from fsci import __version__
-from fsci.errors import SolverError
+from fsci.errors import InputError, SolverError
 from fsci.fields import StepContext
 from fsci.post.quantities import QuantityEvaluator
 from fsci.problem import Problem
@@ -76,9 +76,13 @@ class Simulation:
         self.carried: dict = {"wall_time": 0.0, "timings": {}, "counts": {}}
 
     @classmethod
-    def resume(cls, out_dir: Path, overrides: list[str] | None = None, monitor=None) -> "Simulation":
+    def resume(cls, out_dir: Path, overrides: list[str] | None = None, monitor=None,
+               first_dt: float | None = None) -> "Simulation":
         """Continue the run whose checkpoint and case.toml are in ``out_dir``; ``overrides``
-        (``--set``) change the case from here on and are written into its case.toml."""
+        (``--set``) change the case from here on and are written into its case.toml.
+        ``first_dt`` (``fsci resume --dt``) replaces the step size the run stopped with (after
+        a failed step, its last cut): the next step takes it (at most the scheduled one), and
+        later steps grow back to the schedule as after a step cut."""
         from fsci.config import apply_override, load_toml, problem_from_dict
         from fsci.io.checkpoint import read_checkpoint, stored_meshes
         from fsci.io.vtk import VTKWriter
@@ -99,6 +103,11 @@ class Simulation:
         sim.newton_total = meta["newton_total"]
         sim.dt_current = meta["dt_current"]
         sim.steps_at_dt = meta.get("steps_at_dt", 0)
+        if first_dt is not None:
+            if not first_dt > 0.0:
+                raise InputError("--dt", first_dt, "a positive step size")
+            sim.dt_current = first_dt if first_dt < sim.nominal_dt(sim.t)[0] else None
+            sim.steps_at_dt = 0
         sim.history = meta["history"]
         sim.carried = meta.get("run_totals", sim.carried)
         if meta.get("writer") is not None and sim.problem.output.fields:

@@ -124,6 +124,21 @@ def test_unrecoverable_failure_writes_checkpoint_and_results(monkeypatch, tmp_pa
     assert read_checkpoint(out)[1]["step"] == 6
 
 
+def test_resume_with_a_chosen_first_step(monkeypatch, tmp_path, capsys):
+    """A run stopped where Newton failed continues with ``fsci resume DIR --dt``: the next step
+    takes that size instead of the one the run stopped with, and the step grows back to the
+    schedule (0.02) as after a step cut; a size that is not positive is one input error."""
+    real = _fail_newton_when(monkeypatch, lambda ctx: ctx.t_old >= 0.04 - 1e-12)
+    out = tmp_path / "fail"
+    assert main(["run", "sinking-disk", *_sink_args(["solver.max_step_cuts=2"]), "--out", str(out)]) == 3
+    monkeypatch.setattr(simulation_module, "solve_nonlinear", real)
+    assert main(["resume", str(out), "--dt", "0"]) == 2
+    assert "--dt" in capsys.readouterr().err
+    assert main(["resume", str(out), "--dt", "0.01"]) == 0
+    rows = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    assert rows["dt"][2:5] == pytest.approx([0.01, 0.02, 0.02])
+
+
 @pytest.mark.parametrize("follow", [False, True])
 def test_newton_is_quadratic(follow):
     """Coupled FSI step (sinking disk): residual-ratio order ≥ 1.8, both with the cut frozen at
