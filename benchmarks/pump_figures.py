@@ -4,7 +4,8 @@ the history of a run (also of a run still in progress: history.csv is written ev
     fsci run pump --out results/pump                       # A = 1 on [0, 0.15], 1.5 after
     python benchmarks/pump_figures.py results/pump [--figures docs/figures]
     python benchmarks/pump_figures.py --geometry               # the reconstruction, drawn
-    python benchmarks/pump_figures.py results/pump --snapshots # fields at characteristic instants
+    python benchmarks/pump_figures.py results/pump --snapshots # fields at characteristic instants,
+                                                               # the chamber's area swing per cycle
     python benchmarks/pump_figures.py --help
 
 Flow rates in the design direction (-x, the paper's convention): Q_in = -(outward flux through
@@ -231,6 +232,32 @@ def valve_gap(run: Path, fig_dir: Path) -> None:
     print(f"pump_valve_gap.png: {len(outs)} outputs in [{t0 - 0.006:.4g}, {t1 + 0.002:.4g}]")
 
 
+def chamber_area(run: Path) -> None:
+    """The chamber's area between the walls (x ∈ [0.4, 1.1]) at every field output, from the
+    interface VTU (deformed wetted surfaces), and its swing per load cycle: with tight valves
+    the volume transported per cycle."""
+    import meshio
+
+    from fsci.post.figures import output_times
+
+    grid = np.linspace(0.4, 1.1, 2000)
+    per_cycle: dict[int, list[float]] = {}
+    for to, i in output_times(run):
+        f = run / "vtu" / f"interface_{i:05d}.vtu"
+        if to <= 0 or not f.exists():  # no interface output at the start
+            continue
+        m = meshio.read(f)
+        x, y = m.points[:, 0], m.points[:, 1]
+        walls = []
+        for body in (0, 1):  # upper, lower
+            sel = (m.point_data["body"] == body) & (x > 0.38) & (x < 1.12) & (np.abs(y) < 0.06)
+            o = np.argsort(x[sel])
+            walls.append(np.interp(grid, x[sel][o], y[sel][o]))
+        per_cycle.setdefault(int(np.ceil(to / PERIOD - 1e-9)), []).append(float(np.trapezoid(walls[0] - walls[1], grid)))
+    for k, a in per_cycle.items():
+        print(f"cycle {k}: chamber area {min(a):.4g} .. {max(a):.4g} over {len(a)} outputs, swing {max(a) - min(a):.4g}")
+
+
 def geometry(fig_dir: Path) -> None:
     """The reconstructed geometry: solid meshes, fluid box, Γ^P, valves, with the chosen sizes."""
     import matplotlib
@@ -282,6 +309,7 @@ def main(argv: list[str] | None = None) -> None:
         if args.snapshots:
             snapshots(args.run, args.figures)
             valve_gap(args.run, args.figures)
+            chamber_area(args.run)
     elif not args.geometry:
         ap.error("give a run folder or --geometry")
 

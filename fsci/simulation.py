@@ -47,6 +47,19 @@ class Interrupted(KeyboardInterrupt):
         self.signum = signum
 
 
+def interruption_in(exc: BaseException) -> KeyboardInterrupt | None:
+    """The interrupt (Ctrl-C, or SIGINT/SIGTERM through the run's handler) inside ``exc``'s
+    chain of causes, if any: numba's dispatcher turns an exception raised while it loads or
+    compiles a kernel into a ``SystemError`` whose cause is that exception."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
+
+
 class Simulation:
     """Runs a :class:`Problem` and writes its outputs into ``out_dir`` (if given)."""
 
@@ -174,6 +187,13 @@ class Simulation:
             except KeyboardInterrupt:
                 restore(self.system, saved)  # back to the last completed step for the checkpoint
                 raise
+            except SystemError as exc:
+                # a signal that arrives while numba loads or compiles a kernel reaches us wrapped
+                stop = interruption_in(exc)
+                if stop is None:
+                    raise
+                restore(self.system, saved)
+                raise stop from None
             finally:
                 self._in_solve = False
             self.newton_total += rep.iterations
