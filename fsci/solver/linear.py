@@ -31,6 +31,7 @@ from __future__ import annotations
 import ctypes
 import os
 import time
+from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
@@ -83,8 +84,8 @@ class SuperLUSolver(LinearSolver):
         return x
 
 
-def right_preconditioned_gmres(A: sp.csr_matrix, b: np.ndarray, precondition, tol: float,
-                               max_its: int) -> tuple[np.ndarray | None, int]:
+def right_preconditioned_gmres(A: sp.csr_matrix, b: np.ndarray, precondition: Callable[[np.ndarray], np.ndarray],
+                               tol: float, max_its: int) -> tuple[np.ndarray | None, int]:
     """GMRES with right preconditioning, one cycle of at most ``max_its`` steps, from x0 = 0.
 
     Right preconditioning (solve ``A M⁻¹ y = b``, ``x = M⁻¹ y``) makes the residual GMRES
