@@ -50,14 +50,21 @@ def intervals(t: np.ndarray, on: np.ndarray) -> list[tuple[float, float]]:
     return [(float(t[a]), float(t[b - 1])) for a, b in zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0])]
 
 
+def valve_jumps(h: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Pressure jump across each valve, positive in the direction it holds: the inflow (right)
+    valve chamber minus inlet side (compression), the outflow (left) valve outlet minus chamber
+    side (suction)."""
+    return {"right": h["p_right_valve_chamber"] - h["p_right_valve_in"],
+            "left": h["p_left_valve_out"] - h["p_left_valve_chamber"]}
+
+
 def events(h: dict[str, np.ndarray]) -> None:
     """Per load cycle: when each valve is shut by contact and the jump it carries, the smallest
     gap between the chamber walls and when they touch, flaps that snap through (tip swung to +x
     by more than the flap's reach ``FLAP_DX``), and the largest per-piece mass imbalance."""
     t = h["time"]
     phi = np.abs(h["mass_phi_solid"]).max()
-    jump = {"right": h["p_right_valve_chamber"] - h["p_right_valve_in"],
-            "left": h["p_left_valve_out"] - h["p_left_valve_chamber"]}
+    jump = valve_jumps(h)
     print("| cycle | inflow valve shut (contact) | its largest jump | outflow valve shut | its largest jump | "
           "smallest wall gap | walls touch | flaps snapped through | largest per-piece imbalance / flux |")
     print("|---|---|---|---|---|---|---|---|---|")
@@ -166,11 +173,11 @@ def snapshots(run: Path, fig_dir: Path) -> None:
     k = max(1, min(3, int(np.floor(t[-1] / PERIOD + 1e-9))))
     c1 = (t > (k - 1) * PERIOD) & (t <= k * PERIOD)
     wanted = []
-    for phase, valve, jump, sign in (("compression", "inflow", h["p_right_valve_chamber"] - h["p_right_valve_in"], 1),
-                                     ("suction", "outflow", h["p_left_valve_out"] - h["p_left_valve_chamber"], -1)):
-        shut = c1 & (h[f"valve_{'right' if valve == 'inflow' else 'left'}_length_contact"] > 0)
+    jump = valve_jumps(h)
+    for phase, valve, side, sign in (("compression", "inflow", "right", 1), ("suction", "outflow", "left", -1)):
+        shut = c1 & (h[f"valve_{side}_length_contact"] > 0)
         if shut.any():
-            wanted.append((f"{phase}, {valve} valve shut (cycle {k})", t[shut][np.nanargmax(jump[shut])]))
+            wanted.append((f"{phase}, {valve} valve shut (cycle {k})", t[shut][np.nanargmax(jump[side][shut])]))
         else:  # p_chamber is NaN while a body covers its probe
             wanted.append((f"{phase} (cycle {k})", t[c1][np.nanargmax(sign * h["p_chamber"][c1])]))
     late = t > 0.15
