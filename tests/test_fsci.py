@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import inspect
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -243,15 +244,19 @@ def test_stamp_contacts_rests_and_lifts_off_at_the_calibrated_times(tmp_path):
     assert r["stamp_length_contact"][-1] == 0 and r["uy_X"][-1] > r["uy_X"][rest].max()
 
 
+def run_pump(out: Path, *overrides: str) -> np.ndarray:
+    """History of the built-in pump run with ``overrides`` (``--set``), without field output."""
+    args = [a for o in (*overrides, "output.every=0", "output.figures=false") for a in ("--set", o)]
+    assert main(["run", "pump", *args, "--out", str(out)]) == 0
+    return np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+
+
 @pytest.fixture(scope="module")
 def pump_compression(tmp_path_factory):
     """The reconstructed pump (docs/cases/pump.md; the paper's grid with the valve zones 4 times
     finer) through its first compression until the inflow valve has been shut for a while
     (t ≤ 0.016, steps of 4e-4, twice the paper's)."""
-    out = tmp_path_factory.mktemp("pump")
-    assert main(["run", "pump", "--set", "time.segments=[{until=0.016, dt=4e-4}]", "--set", "output.every=0",
-                 "--set", "output.figures=false", "--out", str(out)]) == 0
-    return np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    return run_pump(tmp_path_factory.mktemp("pump"), "time.segments=[{until=0.016, dt=4e-4}]")
 
 
 def test_pump_compression_shuts_the_inflow_valve_by_contact(pump_compression):
@@ -305,11 +310,8 @@ def pump_cycle(tmp_path_factory):
     unknowns). The own-cut tolerance is the one the whole run needed where a valve opens
     (``own_cut_tol = 1e-3``, docs/cases/pump.md): with the default the outflow valve's closure
     stalled at steps near 1e-5."""
-    out = tmp_path_factory.mktemp("pump_cycle")
-    assert main(["run", "pump", "--set", "r=2", "--set", "fluid.interface.own_cut_tol=1e-3",
-                 "--set", "time.segments=[{until=0.05, dt=4e-4}]", "--set", "output.every=0",
-                 "--set", "output.figures=false", "--out", str(out)]) == 0
-    return np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    return run_pump(tmp_path_factory.mktemp("pump_cycle"), "r=2", "fluid.interface.own_cut_tol=1e-3",
+                    "time.segments=[{until=0.05, dt=4e-4}]")
 
 
 def test_pump_cycle_shuts_each_valve_in_its_half_and_pumps_in_the_design_direction(pump_cycle):
