@@ -32,13 +32,14 @@ from fsci.system import System
 
 def _matrix(system: System, ctx: StepContext, bulk_faces: bool) -> sp.csr_matrix:
     f = system.fluid
-    faces, ghost, face_nodes = f.faces, f.ghost, f.face_nodes
+    faces, weight, face_nodes = f.faces, f.ghost_weight, f.face_nodes
     try:
         if not bulk_faces:
-            f.faces, f.ghost, f.face_nodes = faces[ghost], ghost[ghost], face_nodes[ghost]
+            ghost = weight > 0.0
+            f.faces, f.ghost_weight, f.face_nodes = faces[ghost], weight[ghost], face_nodes[ghost]
         asm = system.assemble(ctx)
     finally:
-        f.faces, f.ghost, f.face_nodes = faces, ghost, face_nodes
+        f.faces, f.ghost_weight, f.face_nodes = faces, weight, face_nodes
     A = asm.matrix().copy()  # fsci's pattern, structural zeros included (as in a run)
     if not bulk_faces:  # pressure mass eps h^2 on the diagonal (cell-local, keeps the pattern)
         h = float(f.grid.cell_size.min())

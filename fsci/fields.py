@@ -307,7 +307,7 @@ class FluidField:
         if not st.ghost_penalty:
             keep &= ~cut.ghost
         self.faces = cut.faces[keep]
-        self.ghost = cut.ghost[keep]
+        self.ghost_weight = cut.ghost_weights(st.ghost_ramp)[keep]
         self.face_nodes = cut.face_vnodes[keep]
         n = self.grid.n_nodes
         single = cut.n_vnodes == n and len(self.active) == n
@@ -478,7 +478,7 @@ class FluidField:
         fk.assemble_fluid_cells(g.xs, g.ys, g.nx, self.int_conn, self.int_cells, self.qptr, self.qx, self.qw,
                                 body_force_q, self.V, self.P, Vo, self.Vbar, self.cell_parameters(ctx), self.gnode,
                                 asm.positions(conn), *tgt)
-        fk.assemble_fluid_faces(g.xs, g.ys, g.nx, self.face_nodes, self.faces, self.ghost.astype(np.bool_), self.Vbar, self.V, self.P,
+        fk.assemble_fluid_faces(g.xs, g.ys, g.nx, self.face_nodes, self.faces, self.ghost_weight, self.Vbar, self.V, self.P,
                                 self.face_parameters(ctx), self.gnode, asm.positions(self.gnode[self.face_nodes]),
                                 *tgt)
         self._assemble_neumann(asm, ctx)

@@ -805,6 +805,25 @@ class CutState:
                 np.ascontiguousarray(np.concatenate(out_n)))
 
     # ----------------------------------------------------------------- queries
+    def ghost_weights(self, ramp: float) -> np.ndarray:
+        """Weight of the ghost penalty (26) on each face of :attr:`faces`: zero between two
+        FLUID cells; otherwise ``min(1, σ / ramp)`` for the larger solid fraction σ of the face's
+        two cells (1 for every face of a cut cell if ``ramp`` is 0, the paper's switch).
+
+        With the switch, a cell that a body's edge grazes (a solid sliver of 1e-9 of the cell
+        where the edge passes a grid node) puts the full penalty on its faces at once, and the
+        residual jumps with a motion of the body far below the Newton tolerance: on the pump
+        Newton and the cut then alternate between two states 6e-4 cells apart, neither the
+        solution of its own cut (docs/architecture.md, decision 33). The ramp makes the penalty
+        continuous in the geometry; a cell with a solid fraction above ``ramp`` (a small fluid
+        part, the cells the penalty is for) is penalised exactly as in the paper."""
+        g = self.grid
+        solid = 1.0 - self.fluid_area / (g.cell_size[:, 0] * g.cell_size[:, 1])
+        w = np.ones(g.n_cells) if ramp <= 0.0 else np.clip(solid / ramp, 0.0, 1.0)
+        w[self.state == FLUID] = 0.0
+        w[self.state == SOLID] = 1.0
+        return np.where(self.ghost, np.maximum(w[self.faces[:, 0]], w[self.faces[:, 1]]), 0.0)
+
     def boundary_pieces(self, side: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """PHYSICAL parts of the box side's grid edges: edge index (into ``grid.side_edges``),
         local range ``[s0, s1]`` (0 at the edge's first node; uncut edges give [0, 1]) and the

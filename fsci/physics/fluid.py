@@ -20,7 +20,7 @@ Face stabilisation (25), (26) on interior faces between ACTIVE cells, with 4C's
     regime = nu + 10 h |u|_max + h^2/(12 dt)
     tau_u = rho gamma_u |u.n|^2 h^3 / regime,  tau_div = rho gamma_div regime h,
     tau_p = gamma_p h^3 / (rho regime),  tau_gp = gamma_gp rho nu h + gamma_gp,t rho h^3/dt
-    tau_v = tau_u (+ tau_gp on ghost-penalty faces)
+    tau_v = tau_u (+ w_F tau_gp on ghost-penalty faces, w_F in (0, 1], see CutState.ghost_weights)
 
 For continuous Q1 functions on straight faces only the normal derivative jumps, so the full
 gradient jump [[grad v]] of 4C equals [[d_n v]] ⊗ n. The velocities in the scalings are a
@@ -320,9 +320,10 @@ def _face_map(d, rmap):
 
 
 @njit(cache=True)
-def assemble_fluid_faces(xs, ys, nx, fnodes, faces, ghost, Vbar, V, P, prm, gnode, pos,
+def assemble_fluid_faces(xs, ys, nx, fnodes, faces, ghost_weight, Vbar, V, P, prm, gnode, pos,
                          data, rhs, row_base, row_len, start, ndof, want_matrix):
-    """Add CIP (25) and ghost-penalty (26) face terms; ``ghost[f]`` marks ghost-penalty faces,
+    """Add CIP (25) and ghost-penalty (26) face terms; ``ghost_weight[f]`` scales the ghost
+    penalty on face ``f`` (0: none; see :meth:`fsci.cut.state.CutState.ghost_weights`),
     ``fnodes[f]`` are the six (virtual) nodes of face ``f``'s two cells."""
     rho = prm[S_RHO]
     mu = prm[S_MU]
@@ -363,9 +364,7 @@ def assemble_fluid_faces(xs, ys, nx, fnodes, faces, ghost, Vbar, V, P, prm, gnod
         regime = nu + 10.0 * h * umax + h * h / 12.0 * prm[S_DTINV]
         tau_div = rho * prm[S_GDIV] * regime * h
         tau_p = prm[S_GP] * h ** 3 / (rho * regime)
-        tau_gp = 0.0
-        if ghost[f]:
-            tau_gp = prm[S_GGP] * rho * nu * h + prm[S_GGPT] * rho * h ** 3 * prm[S_DTINV]
+        tau_gp = ghost_weight[f] * (prm[S_GGP] * rho * nu * h + prm[S_GGPT] * rho * h ** 3 * prm[S_DTINV])
         Ke[:] = 0.0
         Re[:] = 0.0
         for g in range(2):
