@@ -80,7 +80,7 @@ class Stabilization:
     gamma_gp: float = 0.5
     gamma_gp_t: float = 0.001
     ghost_penalty: bool = True  # False drops every face term on faces of cut cells (studies only)
-    ghost_ramp: float = 1e-3  # solid fraction of a cut cell from which its faces carry the full ghost penalty
+    ghost_ramp: float = 0.0  # solid fraction of a cut cell from which its faces carry the full ghost penalty
     scheme: str = "cip"  # "cip": faces (25) everywhere; "residual": SUPG/PSPG/grad-div cells + faces of cut cells
 
 

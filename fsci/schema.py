@@ -749,7 +749,7 @@ STABILIZATION = Table([
     Key("gamma_gp", Num(0.0), 0.5, "viscous ghost-penalty constant"),
     Key("gamma_gp_t", Num(0.0), 0.001, "transient ghost-penalty constant"),
     Key("ghost_penalty", Bool(), True, "face terms on faces of cut cells (false: studies only)"),
-    Key("ghost_ramp", Num(0.0, hi=1.0), 1e-3,
+    Key("ghost_ramp", Num(0.0, hi=1.0), 0.0,
         "solid fraction of a cut cell from which its faces carry the whole ghost penalty; below it the "
         "penalty grows linearly from zero, so that it does not switch on when a body's edge grazes a cell "
         "(0: the paper's switch, full penalty on every face of a cut cell)"),

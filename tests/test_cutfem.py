@@ -61,8 +61,7 @@ def _stokes_condition(frac, gp):
 
 def test_ghost_penalty_keeps_the_condition_number_bounded():
     """Fluid fractions 1e-10 … 0.99999: with the ghost penalty the condition number varies by a
-    factor 2.05 (asserted 6; the nearly full cells, whose faces carry a fraction of the penalty
-    (``ghost_ramp``), included); without it, slivers give > 1e24 (asserted > 1e12)."""
+    factor 2.05 (asserted 6); without it, slivers give > 1e24 (asserted > 1e12)."""
     fracs = [1e-10, 1e-8, 1e-6, 1e-4, 1e-2, 0.1, 0.5, 0.9, 0.999, 0.99999]
     with_gp = np.array([_stokes_condition(f, True) for f in fracs])
     assert with_gp.max() / with_gp.min() < 6.0, with_gp
@@ -97,7 +96,7 @@ def _residual_with_plate_shifted(dy: float, ramp: float) -> np.ndarray:
 
 def test_ghost_penalty_is_continuous_when_an_edge_grazes_a_grid_node():
     """A body's edge sweeping over a grid node (shifts −δ, +δ, +3δ with δ = 1e-7): with the
-    ghost penalty ramped in over a solid fraction of 1e-3 (the default) the residual changes
+    ghost penalty ramped in over a solid fraction of 1e-3 (``ghost_ramp``) the residual changes
     across the node by as much as along the same side (ratio measured 1.0, asserted < 3); with
     the paper's switch (``ghost_ramp = 0``) the cell below the node gets the full penalty on its
     faces at once and the residual jumps (ratio measured 1.1e4, asserted > 1e3). That jump made
