@@ -162,6 +162,7 @@ class SolverSettings:
     tol_increment: float = 1e-8
     rtol_residual: float = 1e-10
     damping: bool = True
+    relaxation: bool = True  # Aitken relaxation of the Newton update while the cut follows the iterates
     linear: str = "auto"
     forcing: float = 0.9  # largest relative residual of a linear solve with reused factors (0: exact)
     max_step_cuts: int = 6

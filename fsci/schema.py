@@ -843,6 +843,9 @@ SOLVER = Table([
     Key("tol_increment", Num(0.0, lo_open=True), 1e-8, "… and every field's increment (max norm) is below this"),
     Key("rtol_residual", Num(0.0), 1e-10, "… or the residual fell by this factor from the first iteration"),
     Key("damping", Bool(), True, "damped Newton (step length rule of paper §3.4.1)"),
+    Key("relaxation", Bool(), True, "Aitken relaxation of the Newton update while the cut follows the "
+        "iterates, where the Jacobian lacks part of the cut's motion (contact) and Newton can overshoot "
+        "back and forth (docs/architecture.md, decision 34)"),
     Key("linear", Str(("auto", "pardiso", "superlu")), "auto", "linear solver (auto: PARDISO if installed)"),
     Key("forcing", Num(0.0, 1.0, hi_open=True), 0.9, "largest relative residual of a linear solve that "
         "reuses factors (inexact Newton, forcing term of Eisenstat and Walker); 0: every solve exact"),

@@ -124,6 +124,11 @@ class System:
             return True
         return self._motion_since_cut() <= self.fluid.spec.interface.own_cut_tol
 
+    def cut_follows(self) -> bool:
+        """Whether the cut was rebuilt at the current iterate (the shape derivative is then in
+        the Jacobian, but in contact only in part: decision 21)."""
+        return self.fluid is not None and self.moving() and not self._cut_frozen
+
     def follow_cut_again(self, it: int) -> None:
         """A frozen-cut state was not the state's own cut: the cut follows the iterates again
         for ``freeze_cut_after`` iterations from iteration ``it``."""

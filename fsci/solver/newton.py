@@ -4,6 +4,10 @@ Damping follows 4C's rule: the factor is 1 at the first iteration of a step, mul
 0.75 when the residual norm grew, and otherwise raised again (divided by 0.875, or reset to 1
 once above 0.875) unless the last three residual norms are non-monotone.
 
+While the cut follows the iterates (``System.cut_follows``) the update is also relaxed by
+Aitken's factor (:func:`aitken_factor`): in contact the Jacobian lacks part of the cut's motion
+and the updates can swing back and forth (docs/architecture.md, decision 34).
+
 Convergence is checked per field (displacement, velocity, pressure): every residual norm
 ``||R_f||_2 <= max(tol_residual, rtol_residual * ||R_f^(0)||_2)`` and every increment norm
 ``||dx_f||_inf <= tol_increment``.
@@ -67,6 +71,11 @@ def _likely_converged(system, settings: SolverSettings, it: int, inc_norms: dict
     return not hasattr(system, "converged_extra") or system.converged_extra(settings)
 
 
+def system_cut_follows(system) -> bool:
+    """Whether ``system`` rebuilt its cut at the current iterate (False for systems without one)."""
+    return hasattr(system, "cut_follows") and system.cut_follows()
+
+
 def forcing_term(totals: list[float], largest: float) -> float:
     """Relative residual the linear solve of this iteration may stop at (inexact Newton,
     Eisenstat & Walker 1996, choice 2 with γ = 0.9, α = 2): ``0.9 (|R_k| / |R_(k-1)|)²``, at most
@@ -77,6 +86,19 @@ def forcing_term(totals: list[float], largest: float) -> float:
     if largest <= 0.0 or len(totals) < 2 or totals[-2] <= 0.0:
         return 0.0
     return min(largest, 0.9 * (totals[-1] / totals[-2]) ** 2)
+
+
+def aitken_factor(dx: np.ndarray, dx_prev: np.ndarray, omega_prev: float) -> float:
+    """Relaxation factor of the update ``dx`` after the update ``dx_prev`` relaxed by
+    ``omega_prev`` (Irons and Tuck 1969; Küttler and Wall 2008 for partitioned FSI):
+    ``ω = −ω_prev dx_prev·(dx − dx_prev) / |dx − dx_prev|²``, kept in [0.1, 1]. Where Newton
+    converges quadratically dx ≪ dx_prev and ω stays 1; where the updates swing back and forth
+    (dx ≈ q dx_prev, q → −1) ω ≈ 1 / (1 − q) ≈ 1/2 takes the midpoint at once."""
+    d = dx - dx_prev
+    dd = float(d @ d)
+    if dd <= 0.0:
+        return omega_prev
+    return min(1.0, max(0.1, -omega_prev * float(dx_prev @ d) / dd))
 
 
 def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: LinearSolver,
@@ -95,6 +117,7 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
     totals: list[float] = []
     last: tuple[np.ndarray, np.ndarray, float] | None = None  # state before the last update, update, length
     last_layout = None  # the dof layout ``last`` belongs to
+    relaxed: tuple[np.ndarray, float] | None = None  # last update and its Aitken factor, while the cut follows
     for it in range(1, settings.max_iterations + 2):
         for halving in range(BACKTRACK + 1):
             try:
@@ -178,10 +201,19 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
             report.reason = "non-finite Newton increment"
             report.iterations = solves
             return report
-        last, last_layout = (x, dx, lam), system.layout
-        x = x + lam * dx
+        # while the cut follows the iterates in contact the Jacobian lacks part of the cut's
+        # motion and the updates can swing back and forth: Aitken relaxation (decision 34)
+        omega = 1.0
+        if settings.relaxation and it >= 2 and not recut and not layout_changed and system_cut_follows(system):
+            if relaxed is not None and len(relaxed[0]) == len(dx):
+                omega = aitken_factor(dx, *relaxed)
+            relaxed = (dx, lam * omega)  # the factor applied, damping included
+        else:
+            relaxed = None
+        last, last_layout = (x, dx, lam * omega), system.layout
+        x = x + lam * omega * dx
         system.scatter(x)
-        inc_norms = _norms(lam * dx, system.field_dofs, "inf")
+        inc_norms = _norms(lam * omega * dx, system.field_dofs, "inf")
         report.iterations = solves + 1
     report.reason = f"no convergence in {settings.max_iterations} iterations (residual {report.residuals[-1]:.3e})"
     return report
