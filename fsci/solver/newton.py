@@ -27,6 +27,7 @@ from fsci.solver.linear import LinearSolver
 
 DAMP_DOWN = 0.75
 DAMP_UP = 0.875
+FOLLOWING_RATE = 0.5  # the cut keeps following while each iteration reduces the residual by this
 BACKTRACK = 4  # halvings of a Newton update whose iterate cannot be evaluated, before the step is cut
 
 
@@ -173,6 +174,9 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
             recut = True  # the cut follows again: the jump of the re-cut residual is no reason to damp
         if it > settings.max_iterations:
             break
+        if totals and total < FOLLOWING_RATE * totals[-1] and system_cut_follows(system):
+            # converging with the cut following: no reason to freeze it (decision 35)
+            system.keep_following(it + 1)
         if settings.damping and totals:
             if total > totals[-1]:
                 lam *= DAMP_DOWN
