@@ -38,7 +38,6 @@ class System:
         self.layout_changes = 0
         self._cut_frozen = False
         self._follow_until = 0  # the cut follows the iterates up to this iteration of the step
-        self._films_closed = None  # films the last cut of this Newton solve closed (CutState.closed_before)
         self.timings = {"cut": 0.0, "assembly": 0.0}
         self.counts = {"cut": 0, "assembly": 0, "residual_only": 0}  # residual_only: assemblies without matrix
         if self.fluid is not None:
@@ -85,8 +84,7 @@ class System:
         outlines = self.outlines()
         st = f.spec.interface
         cut = CutState(f.grid, outlines, st.island_factor, keep_nodes=keep_nodes, film_closure=st.film_closure,
-                       separate_parts=st.unknowns == "per_fluid_part", trapped_film=st.trapped_film,
-                       closed_before=self._films_closed)
+                       separate_parts=st.unknowns == "per_fluid_part", trapped_film=st.trapped_film)
         self.timings["cut"] += time.perf_counter() - t0
         self.counts["cut"] += 1
         if initial and st.unknowns == "per_node":  # thin bodies share nodes only with one set per node
@@ -100,7 +98,6 @@ class System:
                 warn_if_thin(o, h, g.box, cell_h)
         changed = f.set_cut(cut, extend=not initial)
         self.cut = cut
-        self._films_closed = cut.closed_films
         self._u_at_cut = [s.U.copy() for s in self.solids]
         if changed and not initial:
             self.build_layout()
@@ -312,7 +309,6 @@ class System:
                 s.U[nodes, comps] = vals
             s.begin_step(ctx)
         if self.fluid is not None and self.solids:
-            self._films_closed = None  # the film hysteresis acts within one Newton solve
             self.update_cut()
             self.layout_changes = 0
             self.piece_changes = 0

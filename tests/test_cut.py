@@ -105,32 +105,6 @@ def test_two_rectangles_touching_overlapping_and_separating(gap):
     assert abs(sc_len - expected_sc) < 1e-12
 
 
-def test_a_closed_film_stays_closed_until_twice_as_thick():
-    """Hysteresis of the film closure (decision 35): with δ = film_closure × h, the film of a
-    gap of 0.5 δ between two blocks is closed (the blocks grown by δ overlap across it) and the
-    facing edge is dry; a gap of 1.5 δ is wetted on a first cut but stays dry when the previous
-    cut of the same solve had closed the film (grown by 2δ); 2.5 δ is wetted again."""
-    f = 1e-4
-    d = f * H
-
-    def cut(gap: float, before=None) -> CutState:
-        a = rect_outline(0, 0.23, 0.21, 0.77, 0.5 + 0.37 * H)
-        b = rect_outline(1, 0.31, 0.5 + 0.37 * H + gap, 0.69, 0.83)
-        return CutState(GRID, [a, b], island_factor=0.0, film_closure=f, closed_before=before)
-
-    def wetted_facing(cs: CutState) -> float:  # wetted length of the upper block's bottom edge
-        pts = cs.interface_points(1, cs.segments.fs)[0]
-        low = np.all(pts[:, :, 1] < 0.5 + 0.37 * H + 6.0 * d, axis=1)
-        return float(np.linalg.norm(pts[low, 1] - pts[low, 0], axis=1).sum())
-
-    closed = cut(0.5 * d)
-    assert wetted_facing(closed) == 0.0
-    assert wetted_facing(cut(1.5 * d)) == pytest.approx(0.38)
-    kept = cut(1.5 * d, closed.closed_films)
-    assert wetted_facing(kept) == 0.0
-    assert wetted_facing(cut(2.5 * d, kept.closed_films)) == pytest.approx(0.38)
-
-
 def test_fluid_island_between_bodies_is_removed():
     """A fluid pocket enclosed by two overlapping bodies and smaller than the island
     threshold is not fluid; its boundary becomes Γ^SC."""

@@ -224,17 +224,12 @@ class CutState:
     separate_parts
         One set of fluid unknowns per connected fluid part of a node's cells (False: one per
         node, the paper's; see :meth:`_build_active`).
-    closed_before
-        Films closed by the previous cut of the same Newton solve: such a film stays closed
-        up to twice the gap that closed it (hysteresis, see :meth:`_closed_films`).
     """
 
     def __init__(self, grid: Grid, outlines: list[Outline], island_factor: float = 2.0, quad_degree: int = 5,
                  keep_nodes: np.ndarray | None = None, film_closure: float = 0.0,
-                 separate_parts: bool = False, trapped_film: float = 0.1,
-                 closed_before: shapely.Geometry | None = None) -> None:
+                 separate_parts: bool = False, trapped_film: float = 0.1) -> None:
         self.grid = grid
-        self.closed_before = closed_before
         self.trapped_film = trapped_film
         self.outlines = outlines
         self.island_factor = island_factor
@@ -254,9 +249,7 @@ class CutState:
     def _build_region(self) -> None:
         g = self.grid
         bodies = [o.polygon for o in self.outlines]
-        films = self._closed_films(bodies)
-        self.closed_films = shapely.union_all(films) if films else shapely.Polygon()
-        solid = shapely.union_all(bodies + films) if bodies else shapely.Polygon()
+        solid = shapely.union_all(bodies + self._closed_films(bodies)) if bodies else shapely.Polygon()
         fluid = shapely.difference(self.box, solid)
         parts = list(shapely.get_parts(fluid)) if not fluid.is_empty else []
         keep, islands = [], []
@@ -287,27 +280,11 @@ class CutState:
 
     def _closed_films(self, bodies: list[shapely.Geometry]) -> list[shapely.Geometry]:
         """Regions within δ of two different bodies: films thinner than 2δ between bodies in
-        contact, whose sign of the (tiny) discrete gap must not decide what is fluid.
-
-        A gap below δ is closed across (the grown bodies overlap over all of it). A film that
-        the previous cut of the same Newton solve closed (``closed_before``) stays closed while
-        the bodies grown by 2δ overlap across it, i.e. up to twice the gap that closed it: with
-        one threshold, flaps pressed together at a gap near δ made Newton alternate between a
-        closed film (the points dry, case IV) and an open one (wetted, case I) from one iterate
-        to the next (docs/architecture.md, decision 35)."""
+        contact, whose sign of the (tiny) discrete gap must not decide what is fluid."""
         if self.film_closure <= 0.0 or len(bodies) < 2:
             return []
         g = self.grid
         d = self.film_closure * float(min(np.diff(g.xs).min(), np.diff(g.ys).min()))
-        films = self._films_within(bodies, d)
-        before = self.closed_before
-        if before is not None and not before.is_empty:
-            films += [f for f in self._films_within(bodies, 2.0 * d) if f.intersects(before)]
-        return films
-
-    @staticmethod
-    def _films_within(bodies: list[shapely.Geometry], d: float) -> list[shapely.Geometry]:
-        """Regions within ``d`` of two different bodies."""
         grown = shapely.buffer(np.array(bodies, dtype=object), d, join_style="mitre")
         i, j = shapely.STRtree(grown).query(grown, predicate="intersects")
         pairs = i < j
