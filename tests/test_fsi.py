@@ -164,15 +164,19 @@ def test_newton_is_quadratic(follow):
 
 
 @pytest.mark.parametrize("own_cut_tol", [1e-6, 1e20])
-def test_a_state_converged_on_a_frozen_cut_is_accepted_only_on_its_own_cut(own_cut_tol):
+def test_a_state_converged_on_a_frozen_cut_is_accepted_only_on_its_own_cut(monkeypatch, own_cut_tol):
     """A sinking-disk step with the cut frozen from the third iteration (``freeze_cut_after
-    = 2``): Newton converges on the cut of iteration 2 while the disk moves on. With the default
+    = 2``; the cut kept following while Newton converges, decision 35, is switched off here so
+    that the freeze comes while the disk still moves): Newton converges on the cut of iteration
+    2 while the disk moves on. With the default
     ``own_cut_tol`` that state is not accepted — the cut follows again until the converged
     state's cut is its own (measured: the disk moved 1e-12 cells since it) and the mass balance
     (46) holds to solver tolerance (6e-11 of the flux); accepting it (``own_cut_tol`` = 1e20,
     the rule switched off) leaves a disk 1.1e-5 cells past its cut and a mass error of 4e-4."""
+    import fsci.solver.newton as newton_module
     from fsci.post.quantities import mass_balance
 
+    monkeypatch.setattr(newton_module, "FOLLOWING_RATE", 0.0)
     case = get_case("sinking-disk")
     for o in ("n=16", "solver.tol_residual=1e-11", "fluid.interface.freeze_cut_after=2",
               f"fluid.interface.own_cut_tol={own_cut_tol}"):
