@@ -72,8 +72,8 @@ def test_ghost_penalty_keeps_the_condition_number_bounded():
 def _residual_with_plate_shifted(dy: float, ramp: float) -> np.ndarray:
     """Residual of a fixed random fluid state around a thin elastic plate whose lower edge
     passes through the grid node (0.6, 0.4) when shifted by ``dy`` = 0 (slope −1/4, 5 × 5
-    cells); shifted down, the cell below-left of the node gets a solid sliver of about
-    (2 dy)² / h²."""
+    cells); shifted down by |dy|, the cell below-left of the node gets a solid sliver of
+    2 dy² / h² of its area."""
     low = lambda x: 0.4 - 0.25 * (x - 0.6)  # noqa: E731
     plate = {"name": "plate", "material": {"law": "neo_hooke", "E": 10.0, "nu": 0.3, "rho": 1.0},
              "mesh": {"type": "mapped", "nx": 6, "ny": 1, "sides": {
