@@ -209,7 +209,7 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
         # motion and the updates can swing back and forth: Aitken relaxation (decision 34)
         omega = 1.0
         if settings.relaxation and it >= 2 and not recut and not layout_changed and system_cut_follows(system):
-            if relaxed is not None and len(relaxed[0]) == len(dx):
+            if relaxed is not None:  # reset at every re-cut restart and ACTIVE-set change
                 omega = aitken_factor(dx, *relaxed)
             relaxed = (dx, lam * omega)  # the factor applied, damping included
         else:
