@@ -9,6 +9,7 @@ change of the boundary values into the interior (consistent Dirichlet predictor)
 from __future__ import annotations
 
 import numpy as np
+import shapely
 
 import time
 import warnings
@@ -21,6 +22,9 @@ from fsci.fem.sparse import DofLayout, PatternCache
 from fsci.fields import FluidField, SolidField, StepContext
 from fsci.geometry.outlines import Outline, body_polygon, check_in_box, warn_if_thin
 from fsci.problem import Problem
+
+HOLD_AFTER_FLIPS = 2  # changes of the fluid's topology within a step after which dry regions are held
+HOLD_MARGIN = 0.05  # a held region is grown by this × (smallest cell side): the bodies move on
 
 
 class System:
@@ -38,6 +42,9 @@ class System:
         self.layout_changes = 0
         self._cut_frozen = False
         self._follow_until = 0  # the cut follows the iterates up to this iteration of the step
+        self._dry_seen = shapely.Polygon()  # islands of this step's cuts
+        self._islands_last: int | None = None  # number of islands of the last cut
+        self._topology_flips = 0  # changes of that number within the step
         self.timings = {"cut": 0.0, "assembly": 0.0}
         self.counts = {"cut": 0, "assembly": 0, "residual_only": 0}  # residual_only: assemblies without matrix
         if self.fluid is not None:
@@ -83,8 +90,21 @@ class System:
         t0 = time.perf_counter()
         outlines = self.outlines()
         st = f.spec.interface
+        # a pocket of fluid that is an island (dry) in one iterate and open to the fluid in the
+        # next, back and forth: the residual jumps with it and Newton cycles (decision 36); after
+        # two such changes in a step the islands of its cuts stay dry for the rest of the step
+        held = None
+        if self._topology_flips >= HOLD_AFTER_FLIPS:
+            g = f.grid
+            held = shapely.buffer(self._dry_seen, HOLD_MARGIN * min(float(np.diff(g.xs).min()), float(np.diff(g.ys).min())))
         cut = CutState(f.grid, outlines, st.island_factor, keep_nodes=keep_nodes, film_closure=st.film_closure,
-                       separate_parts=st.unknowns == "per_fluid_part", trapped_film=st.trapped_film)
+                       separate_parts=st.unknowns == "per_fluid_part", trapped_film=st.trapped_film,
+                       held_dry=held)
+        if self._islands_last is not None and len(cut.islands) != self._islands_last:
+            self._topology_flips += 1
+        self._islands_last = len(cut.islands)
+        if cut.islands:
+            self._dry_seen = shapely.union_all([self._dry_seen, *cut.islands])
         self.timings["cut"] += time.perf_counter() - t0
         self.counts["cut"] += 1
         if initial and st.unknowns == "per_node":  # thin bodies share nodes only with one set per node
@@ -309,6 +329,7 @@ class System:
                 s.U[nodes, comps] = vals
             s.begin_step(ctx)
         if self.fluid is not None and self.solids:
+            self._dry_seen, self._islands_last, self._topology_flips = shapely.Polygon(), None, 0
             self.update_cut()
             self.layout_changes = 0
             self.piece_changes = 0

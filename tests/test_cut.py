@@ -171,3 +171,24 @@ def test_quadrature_degree_is_configurable():
             b = 8 - a
             q = np.dot(cs.qw[sel], cs.qx[sel, 0] ** a * cs.qx[sel, 1] ** b)
             assert abs(q - polygon_moment(poly, a, b)) < 1e-13
+
+
+def test_a_held_dry_region_is_not_fluid():
+    """``held_dry`` removes its region from the fluid like an island: the slot of
+    ``test_fluid_island_between_bodies_is_removed``, opened at its left end, stays fluid without
+    it and is dry with it; its walls are then Γ^SC."""
+    left = rect_outline(0, 0.2, 0.3, 0.49, 0.7)  # 0.01 short of the slot: its mouth is open
+    lower, upper = rect_outline(1, 0.5, 0.3, 0.8, 0.495), rect_outline(2, 0.5, 0.505, 0.8, 0.7)
+    right = rect_outline(3, 0.6, 0.3, 0.8, 0.7)
+    bodies = [left, lower, upper, right]
+    slot = shapely.box(0.52, 0.495, 0.6, 0.505)
+    open_ = CutState(GRID, bodies, island_factor=2.0)
+    held = CutState(GRID, bodies, island_factor=2.0, held_dry=slot)
+    assert not open_.islands and not held.islands
+    assert abs(open_.qw.sum() - held.qw.sum() - slot.area) < 1e-12
+
+    def sc_length(cs):
+        return sum(np.linalg.norm(p[:, 1] - p[:, 0], axis=1).sum() for p in
+                   [cs.interface_points(k, ~cs.segments.fs)[0] for k in range(len(bodies))])
+    # the two walls of the held part of the slot and its end
+    assert abs(sc_length(held) - sc_length(open_) - (2 * 0.08 + 0.01)) < 1e-12

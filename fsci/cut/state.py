@@ -224,12 +224,17 @@ class CutState:
     separate_parts
         One set of fluid unknowns per connected fluid part of a node's cells (False: one per
         node, the paper's; see :meth:`_build_active`).
+    held_dry
+        A region that is not fluid whatever the gap there (dropped like an island): where the
+        fluid's topology alternated within a Newton solve (``System.update_cut``).
     """
 
     def __init__(self, grid: Grid, outlines: list[Outline], island_factor: float = 2.0, quad_degree: int = 5,
                  keep_nodes: np.ndarray | None = None, film_closure: float = 0.0,
-                 separate_parts: bool = False, trapped_film: float = 0.1) -> None:
+                 separate_parts: bool = False, trapped_film: float = 0.1,
+                 held_dry: shapely.Geometry | None = None) -> None:
         self.grid = grid
+        self.held_dry = held_dry
         self.trapped_film = trapped_film
         self.outlines = outlines
         self.island_factor = island_factor
@@ -249,7 +254,8 @@ class CutState:
     def _build_region(self) -> None:
         g = self.grid
         bodies = [o.polygon for o in self.outlines]
-        solid = shapely.union_all(bodies + self._closed_films(bodies)) if bodies else shapely.Polygon()
+        held = [self.held_dry] if self.held_dry is not None and not self.held_dry.is_empty else []
+        solid = shapely.union_all(bodies + self._closed_films(bodies) + held) if bodies else shapely.Polygon()
         fluid = shapely.difference(self.box, solid)
         parts = list(shapely.get_parts(fluid)) if not fluid.is_empty else []
         keep, islands = [], []
