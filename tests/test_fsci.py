@@ -307,11 +307,10 @@ def test_pump_shut_valve_holds_the_mass_of_each_fluid_piece(pump_compression):
 def pump_cycle(tmp_path_factory):
     """The pump's first load cycle (t ≤ 0.05, A = 1, steps of 4e-4) on a coarser grid: the
     valve zones twice as fine as the paper's grid instead of 4 times (``r = 2``, 33,939
-    unknowns). The own-cut tolerance is the one the whole run needed where a valve opens
-    (``own_cut_tol = 1e-3``, docs/cases/pump.md): with the default the outflow valve's closure
-    stalled at steps near 1e-5."""
-    return run_pump(tmp_path_factory.mktemp("pump_cycle"), "r=2", "fluid.interface.own_cut_tol=1e-3",
-                    "time.segments=[{until=0.05, dt=4e-4}]")
+    unknowns), the default own-cut tolerance (before the pocket hold of decision 36 the
+    outflow valve's closure stalled there at steps near 3e-6, and this test relaxed it to
+    1e-3)."""
+    return run_pump(tmp_path_factory.mktemp("pump_cycle"), "r=2", "time.segments=[{until=0.05, dt=4e-4}]")
 
 
 def test_pump_cycle_shuts_each_valve_in_its_half_and_pumps_in_the_design_direction(pump_cycle):
@@ -319,9 +318,9 @@ def test_pump_cycle_shuts_each_valve_in_its_half_and_pumps_in_the_design_directi
     and the outflow valve during suction (never both at once), each carrying a pressure jump
     (asserted > 5, measured 13.6 and 13.4); fluid leaves through Γ^out in compression and enters
     through Γ^in in suction: net transport in the design direction −x (measured 0.0211 out,
-    0.0083 in). Every step converges (the run reaches t = 0.05); Φ¹ stays below 1e-4 of the
-    largest flux (measured 1.5e-5 where the outflow valve shuts: the relaxed own-cut
-    tolerance)."""
+    0.0083 in). Every step converges or is cut and recovered (the run reaches t = 0.05); Φ¹
+    stays below 1e-5 of the largest flux (measured 2.8e-6 in a step where the pocket between
+    the shutting outflow flaps is held dry, decision 36; ≤ 1e-8 in all but three steps)."""
     r = pump_cycle
     t, dt = r["time"], r["dt"]
     inflow_shut = r["valve_right_length_contact"] > 0
@@ -342,7 +341,7 @@ def test_pump_cycle_shuts_each_valve_in_its_half_and_pumps_in_the_design_directi
     assert out_c > 0.01 and in_s > 0.005
     assert np.sum(r["flow_out"] * dt) > np.sum(-r["flow_in"] * dt) > 0.0
     phi = np.abs(r["mass_phi_solid"]).max()
-    assert np.all(r["mass_err1"] < 1e-4 * phi)
+    assert np.all(r["mass_err1"] < 1e-5 * phi)
 
 
 def test_a_division_by_zero_in_the_parallel_coupling_kernel_is_an_arithmetic_error(monkeypatch):
