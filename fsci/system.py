@@ -93,10 +93,8 @@ class System:
         # a pocket of fluid that is an island (dry) in one iterate and open to the fluid in the
         # next, back and forth: the residual jumps with it and Newton cycles (decision 36); after
         # two such changes in a step the islands of its cuts stay dry for the rest of the step
-        held = None
-        if self._topology_flips >= HOLD_AFTER_FLIPS:
-            g = f.grid
-            held = shapely.buffer(self._dry_seen, HOLD_MARGIN * min(float(np.diff(g.xs).min()), float(np.diff(g.ys).min())))
+        held = shapely.buffer(self._dry_seen, HOLD_MARGIN * self._smallest_cell_side()) \
+            if self._topology_flips >= HOLD_AFTER_FLIPS else None
         cut = CutState(f.grid, outlines, st.island_factor, keep_nodes=keep_nodes, film_closure=st.film_closure,
                        separate_parts=st.unknowns == "per_fluid_part", trapped_film=st.trapped_film,
                        held_dry=held)
@@ -129,11 +127,14 @@ class System:
         tolerance, so that a fluid at rest — velocity at round-off — counts as converged)."""
         return self.stab_change <= settings.outer_tol * self.stab_scale + settings.tol_increment
 
+    def _smallest_cell_side(self) -> float:
+        g = self.fluid.grid
+        return min(float(np.diff(g.xs).min()), float(np.diff(g.ys).min()))
+
     def _motion_since_cut(self) -> float:
         """Largest body displacement since the last cut, in units of the smallest cell side."""
         moved = max(float(np.max(np.abs(s.U - u0), initial=0.0)) for s, u0 in zip(self.solids, self._u_at_cut))
-        g = self.fluid.grid
-        return moved / min(float(np.diff(g.xs).min()), float(np.diff(g.ys).min()))
+        return moved / self._smallest_cell_side()
 
     def cut_is_own(self) -> bool:
         """Whether a state that Newton converged to satisfies its own cut: the cut follows the

@@ -184,9 +184,9 @@ def test_a_gap_that_closes_and_opens_in_turn_stops_the_step(monkeypatch):
 
 
 def _slot_case() -> dict:
-    """Four elastic blocks touching each other on the unit box (10 × 10 cells), enclosing a slot x ∈ (0.5, 0.6),
-    y ∈ (0.495, 0.505), smaller than the island threshold; moving the left block 0.03 to the
-    left opens the slot's mouth to the fluid."""
+    """Four elastic blocks touching each other in the unit box (10 × 10 cells), enclosing a
+    slot x ∈ (0.5, 0.6), y ∈ (0.495, 0.505) smaller than the island threshold; moving the left
+    block 0.03 to the left opens the slot's mouth to the fluid."""
     def block(name, x0, y0, x1, y1):
         sides = {"bottom": {"line": [[x0, y0], [x1, y0]]}, "right": {"line": [[x1, y0], [x1, y1]]},
                  "top": {"line": [[x0, y1], [x1, y1]]}, "left": {"line": [[x0, y0], [x0, y1]]}}
@@ -228,7 +228,7 @@ def test_a_pocket_that_opens_and_shuts_in_turn_is_held_dry():
     assert not first_open.islands
     assert len(cut_with_mouth(False).islands) == 1  # flip 2
     held = cut_with_mouth(True)  # open again, but held dry
-    lost = shapely.intersection(first_open.fluid, shapely.buffer(shut.islands[0], HOLD_MARGIN * 0.1)).area
+    lost = shapely.intersection(first_open.fluid, shapely.buffer(shut.islands[0], HOLD_MARGIN * 0.1)).area  # cells 0.1
     assert lost > 0.9 * shut.islands[0].area and not held.islands
     assert abs(first_open.qw.sum() - held.qw.sum() - lost) < 1e-12
     system.begin_step(ctx)  # a new step: no hold
