@@ -243,3 +243,75 @@ def test_search_rejects_surfaces_seen_through_a_thin_body(y_top_other):
     normal_y = own.normals()[pc.edge, 1]
     assert len(pc) >= 10 and np.all(normal_y < -0.99)  # only the bottom face sees the other strip
     np.testing.assert_allclose(g, -(y_top_other - 0.0), atol=1e-12)
+
+
+def _trace_constant_by_generalised_eigenproblem(X: np.ndarray, edge: int, E: float, nu: float,
+                                                 n_volume: int = 3, n_edge: int = 5) -> float:
+    """Reference for the trace constant of Remark 7, built independently of the kernel: K with
+    ``n_volume``² Gauss points, the edge form with ``n_edge``, and the pencil solved by scipy on
+    an explicit basis of the complement of the rigid-body modes."""
+    import scipy.linalg as sla
+
+    lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+    D = np.array([[lam + 2 * mu, lam, 0.0], [lam, lam + 2 * mu, 0.0], [0.0, 0.0, mu]])
+    ref = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+
+    def strain_matrix(r, s):
+        dN = 0.25 * np.column_stack([ref[:, 0] * (1 + ref[:, 1] * s), ref[:, 1] * (1 + ref[:, 0] * r)])
+        J = dN.T @ X
+        dNx = dN @ np.linalg.inv(J).T
+        B = np.zeros((3, 8))
+        B[0, 0::2], B[1, 1::2], B[2, 0::2], B[2, 1::2] = dNx[:, 0], dNx[:, 1], dNx[:, 1], dNx[:, 0]
+        return B, np.linalg.det(J)
+
+    g3, w3 = np.polynomial.legendre.leggauss(n_volume)
+    K = sum(wi * wj * (lambda B, d: d * B.T @ D @ B)(*strain_matrix(ri, sj))
+            for ri, wi in zip(g3, w3) for sj, wj in zip(g3, w3))
+    a, b = edge, (edge + 1) % 4
+    t = X[b] - X[a]
+    L = np.linalg.norm(t)
+    n = np.array([t[1], -t[0]]) / L
+    g5, w5 = np.polynomial.legendre.leggauss(n_edge)
+    A = np.zeros((8, 8))
+    for gi, wi in zip(g5, w5):
+        s = 0.5 * (gi + 1)
+        B, _ = strain_matrix(*((1 - s) * ref[a] + s * ref[b]))
+        bv = np.array([n[0] ** 2, n[1] ** 2, 2 * n[0] * n[1]]) @ D @ B
+        A += 0.5 * wi * L * np.outer(bv, bv)
+    rigid = np.zeros((8, 3))
+    rigid[0::2, 0], rigid[1::2, 1] = 1.0, 1.0
+    rigid[0::2, 2], rigid[1::2, 2] = -X[:, 1], X[:, 0]
+    Q = sla.null_space(rigid.T)  # (8, 5): displacements orthogonal to the rigid-body modes
+    return float(sla.eigh(Q.T @ A @ Q, Q.T @ K @ Q, eigvals_only=True)[-1])
+
+
+def test_trace_constants_agree_with_the_generalised_eigenproblem_and_scale_as_one_over_h():
+    """The closed-form kernel of the trace inequality (Remark 7) against scipy's generalised
+    eigenproblem on parallelograms (where both quadratures are exact) and distorted quads; λ
+    scales as E/h and does not change under a rigid motion of the element."""
+    from fsci.coupling.term import trace_constants
+
+    rng = np.random.default_rng(7)
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    shapes = []
+    for _ in range(6):  # parallelograms: a random affine map of the square
+        shapes.append(square @ (np.eye(2) + 0.4 * rng.uniform(-1, 1, (2, 2))).T)
+    for _ in range(6):  # general convex quads
+        shapes.append(square + 0.15 * rng.uniform(-1, 1, (4, 2)))
+    Xe = np.array(shapes)
+    edge = rng.integers(0, 4, len(Xe))
+    got = trace_constants(Xe, edge, 2000.0, 0.3)
+    # parallelograms: the reference's higher rules are exact as the kernel's are; distorted
+    # quads (rational strains): the reference with the kernel's rules, 2×2 and 3 points
+    want = np.array([_trace_constant_by_generalised_eigenproblem(X, e, 2000.0, 0.3) for X, e in zip(Xe[:6], edge[:6])]
+                    + [_trace_constant_by_generalised_eigenproblem(X, e, 2000.0, 0.3, 2, 3)
+                       for X, e in zip(Xe[6:], edge[6:])])
+    np.testing.assert_allclose(got, want, rtol=1e-10)
+    # λ ∝ E / h, invariant under rotation and translation
+    c, s = np.cos(0.7), np.sin(0.7)
+    moved = 0.1 * Xe @ np.array([[c, -s], [s, c]]).T + np.array([3.0, -2.0])
+    np.testing.assert_allclose(trace_constants(moved, edge, 500.0, 0.3), got * 10.0 / 4.0, rtol=1e-10)
+    # a unit square of E = 1: φ of the order of 1/h (the 4C estimate's scale), the same for every edge
+    sq = trace_constants(np.repeat(square[None], 4, axis=0), np.arange(4), 1.0, 0.3)
+    np.testing.assert_allclose(sq, sq[0], rtol=1e-12)
+    assert 0.5 < sq[0] < 20.0

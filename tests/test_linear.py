@@ -70,7 +70,7 @@ def test_reused_factors_solve_to_the_requested_residual(shift, rtol, reused, kry
     """A matrix near the factorised one is solved by GMRES preconditioned with the old factors,
     to the relative residual asked for (the inexact-Newton forcing term; round-off when 0);
     otherwise it is factorised and solved to round-off."""
-    n = 150  # 22,500 unknowns: above PardisoSolver.SMALL, where factors are reused
+    n = 150  # 22,500 unknowns: two MKL threads (above PardisoSolver.SMALL)
     b = np.random.default_rng(3).standard_normal(n * n)
     solver = _factorised(_convection_diffusion(n, 0.5), b)
     A1 = _convection_diffusion(n, shift)

@@ -28,6 +28,7 @@ added with weight 1 − θ.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from fsci.assembly import Assembly, ResidualAssembly
 from fsci.coupling import traction as tk
@@ -41,6 +42,7 @@ from fsci.physics.fluid import N_CELL_PARAMETERS
 
 GAP_LAW = "gap_law"
 CASE_NAMES = ("I", "II", "III", "IV")
+_CORNERS = tk.CORNERS  # reference corners of the Q1 element, a constant of the kernels
 
 
 def trace_constants(Xe: np.ndarray, edge: np.ndarray, E: float, nu: float) -> np.ndarray:
@@ -53,38 +55,97 @@ def trace_constants(Xe: np.ndarray, edge: np.ndarray, E: float, nu: float) -> np
     lam = E * nu / ((1 + nu) * (1 - 2 * nu))
     mu = E / (2 * (1 + nu))
     D = np.array([[lam + 2 * mu, lam, 0.0], [lam, lam + 2 * mu, 0.0], [0.0, 0.0, mu]])
-
-    def Bmat(xi):  # xi (k, q, 2) -> B (k, q, 3, 8), det J (k, q)
-        r, s = xi[..., 0], xi[..., 1]
-        dN = 0.25 * np.stack([np.stack([-(1 - s), -(1 - r)], -1), np.stack([1 - s, -(1 + r)], -1),
-                              np.stack([1 + s, 1 + r], -1), np.stack([-(1 + s), 1 - r], -1)], axis=-2)
-        J = np.einsum("ead,eqak->eqdk", Xe, dN)
-        dNx = np.einsum("eqak,eqkd->eqad", dN, np.linalg.inv(J))
-        B = np.zeros(xi.shape[:2] + (3, 8))
-        B[..., 0, 0::2] = dNx[..., 0]
-        B[..., 1, 1::2] = dNx[..., 1]
-        B[..., 2, 0::2] = dNx[..., 1]
-        B[..., 2, 1::2] = dNx[..., 0]
-        return B, np.linalg.det(J)
-
     xi, w = gauss_quad(2)
-    B, det = Bmat(np.broadcast_to(xi, (k,) + xi.shape))
-    K = np.einsum("q,eq,eqik,ij,eqjl->ekl", w, det, B, D, B, optimize=True)
-    a, b = edge, (edge + 1) % 4
     gx, gw = gauss_line(3)
-    s = 0.5 * (gx + 1.0)
-    pts = (1 - s)[None, :, None] * tk.CORNERS[a][:, None, :] + s[None, :, None] * tk.CORNERS[b][:, None, :]
-    Be, _ = Bmat(pts)
-    t = Xe[np.arange(k), b] - Xe[np.arange(k), a]
-    L = np.linalg.norm(t, axis=1)
-    n = np.column_stack([t[:, 1], -t[:, 0]]) / L[:, None]
-    proj = np.column_stack([n[:, 0] ** 2, n[:, 1] ** 2, 2 * n[:, 0] * n[:, 1]])
-    bvec = np.einsum("ei,ij,eqjk->eqk", proj, D, Be)
-    A = np.einsum("q,e,eqk,eql->ekl", 0.5 * gw, L, bvec, bvec, optimize=True)
-    ev, V = np.linalg.eigh(K)
-    # the three rigid-body modes (the smallest eigenvalues, zero) are projected out
-    Z = V[:, :, 3:] / np.sqrt(ev[:, None, 3:])
-    return np.linalg.eigvalsh(np.einsum("eki,ekl,elj->eij", Z, A, Z))[:, -1]
+    return _trace_constants(np.ascontiguousarray(Xe, dtype=np.float64), np.asarray(edge, dtype=np.int64), D,
+                            xi, w, 0.5 * (gx + 1.0), 0.5 * gw)
+
+
+@njit(cache=True, inline="always")
+def _strain_matrix(X: np.ndarray, r: float, s: float, B: np.ndarray) -> float:
+    """B (3, 8) of a Q1 element with corners ``X (4, 2)`` at (r, s) into ``B``; returns det J."""
+    j00 = j01 = j10 = j11 = 0.0
+    for a in range(4):
+        dr = 0.25 * _CORNERS[a, 0] * (1.0 + _CORNERS[a, 1] * s)
+        ds = 0.25 * _CORNERS[a, 1] * (1.0 + _CORNERS[a, 0] * r)
+        j00 += dr * X[a, 0]
+        j01 += dr * X[a, 1]
+        j10 += ds * X[a, 0]
+        j11 += ds * X[a, 1]
+    det = j00 * j11 - j01 * j10
+    B[:] = 0.0
+    for a in range(4):  # dN/dx = J^-T (dN/dr, dN/ds)
+        dr = 0.25 * _CORNERS[a, 0] * (1.0 + _CORNERS[a, 1] * s)
+        ds = 0.25 * _CORNERS[a, 1] * (1.0 + _CORNERS[a, 0] * r)
+        nx = (j11 * dr - j01 * ds) / det
+        ny = (-j10 * dr + j00 * ds) / det
+        B[0, 2 * a] = nx
+        B[1, 2 * a + 1] = ny
+        B[2, 2 * a] = ny
+        B[2, 2 * a + 1] = nx
+    return det
+
+
+@njit(cache=True, inline="always")
+def _largest_eigenvalue_3x3(M: np.ndarray) -> float:
+    """Largest eigenvalue of a symmetric 3×3 matrix, closed form (the trigonometric solution of
+    the characteristic cubic)."""
+    p1 = M[0, 1] ** 2 + M[0, 2] ** 2 + M[1, 2] ** 2
+    q = (M[0, 0] + M[1, 1] + M[2, 2]) / 3.0
+    p2 = (M[0, 0] - q) ** 2 + (M[1, 1] - q) ** 2 + (M[2, 2] - q) ** 2 + 2.0 * p1
+    if p2 <= 1e-30 * q * q:
+        return q
+    p = np.sqrt(p2 / 6.0)
+    Bm = (M - q * np.eye(3)) / p
+    r = 0.5 * (Bm[0, 0] * (Bm[1, 1] * Bm[2, 2] - Bm[1, 2] * Bm[2, 1])
+               - Bm[0, 1] * (Bm[1, 0] * Bm[2, 2] - Bm[1, 2] * Bm[2, 0])
+               + Bm[0, 2] * (Bm[1, 0] * Bm[2, 1] - Bm[1, 1] * Bm[2, 0]))
+    phi = np.arccos(min(1.0, max(-1.0, r))) / 3.0
+    return q + 2.0 * p * np.cos(phi)
+
+
+@njit(cache=True)
+def _trace_constants(Xe: np.ndarray, edge: np.ndarray, D: np.ndarray, xi: np.ndarray, w: np.ndarray,
+                     s_line: np.ndarray, w_line: np.ndarray) -> np.ndarray:
+    """Kernel of :func:`trace_constants`. Per element the stiffness K (2×2 Gauss) and the edge
+    form A = C Cᵀ (3-point Gauss on the edge, C (8, 3)). Both vanish on the rigid-body modes
+    R (8, 3), so on their complement the pencil (A, K) has the eigenvalues of (A, K + α R Rᵀ)
+    for any α > 0, whose largest is that of the 3×3 matrix Cᵀ (K + α R Rᵀ)⁻¹ C."""
+    k = Xe.shape[0]
+    out = np.empty(k)
+    B = np.empty((3, 8))
+    R = np.zeros((8, 3))
+    C = np.empty((8, 3))
+    for e in range(k):
+        X = Xe[e]
+        K = np.zeros((8, 8))
+        for q in range(xi.shape[0]):
+            det = _strain_matrix(X, xi[q, 0], xi[q, 1], B)
+            K += (w[q] * det) * (B.T @ (D @ B))
+        a = edge[e]
+        b = (a + 1) % 4
+        tx = X[b, 0] - X[a, 0]
+        ty = X[b, 1] - X[a, 1]
+        L = np.sqrt(tx * tx + ty * ty)
+        nx, ny = ty / L, -tx / L
+        proj = np.array([nx * nx, ny * ny, 2.0 * nx * ny])
+        for q in range(s_line.shape[0]):
+            t = s_line[q]
+            r = (1 - t) * _CORNERS[a, 0] + t * _CORNERS[b, 0]
+            s = (1 - t) * _CORNERS[a, 1] + t * _CORNERS[b, 1]
+            _strain_matrix(X, r, s, B)
+            C[:, q] = np.sqrt(w_line[q] * L) * (proj @ (D @ B))
+        cx = 0.25 * (X[0, 0] + X[1, 0] + X[2, 0] + X[3, 0])
+        cy = 0.25 * (X[0, 1] + X[1, 1] + X[2, 1] + X[3, 1])
+        for i in range(4):  # translations and the (infinitesimal) rotation about the centroid
+            R[2 * i, 0] = 0.5
+            R[2 * i + 1, 1] = 0.5
+            R[2 * i, 2] = -(X[i, 1] - cy)
+            R[2 * i + 1, 2] = X[i, 0] - cx
+        R[:, 2] /= np.sqrt(np.sum(R[:, 2] ** 2))
+        Kr = K + (np.trace(K) / 8.0) * (R @ R.T)
+        out[e] = _largest_eigenvalue_3x3(C.T @ np.linalg.solve(Kr, C))
+    return out
 
 
 class CouplingTerm:

@@ -91,9 +91,3 @@ def interface_flux_points(system, body: int | None = None) -> tuple[np.ndarray, 
     if not parts:
         return np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0)
     return tuple(np.concatenate([p[i] for p in parts]) for i in range(4))
-
-
-def interface_flow_rates(system, body: int | None = None) -> tuple[float, float]:
-    """(Φ^F, Φ^S): ∫_Γ^FS v·n with the fluid velocity and with the solid velocity (44)."""
-    _, _, phi_f, phi_s = interface_flux_points(system, body)
-    return float(np.sum(phi_f)), float(np.sum(phi_s))

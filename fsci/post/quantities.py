@@ -423,33 +423,34 @@ def mass_balance(system, prefix: str) -> dict[str, float]:
     (46); ``err2 = |Φ^S - Φ^F|`` measures the weak imposition of the interface condition.
     (45) as extracted reads ``|Φ^F - Φ_N|`` for the first error; that is err2 here when the
     box has no other flow — both fluxes are written so either reading can be evaluated.)"""
-    from fsci.post.forces import interface_flow_rates
+    from fsci.post.forces import interface_flux_points
 
-    phi_box = sum(flow_rate(system.fluid, side) for side in ("left", "right", "bottom", "top"))
-    phi_f, phi_s = interface_flow_rates(system)
+    sides = {side: boundary_flux_points(system.fluid, side) for side in ("left", "right", "bottom", "top")}
+    phi_box = float(sum(np.sum(flux) for _, flux in sides.values()))
+    x, n, w_f, w_s = interface_flux_points(system)
+    phi_f, phi_s = float(np.sum(w_f)), float(np.sum(w_s))
     return {f"{prefix}_phi_box": phi_box, f"{prefix}_phi_fluid": phi_f, f"{prefix}_phi_solid": phi_s,
             f"{prefix}_err1": abs(phi_s - phi_box), f"{prefix}_err2": abs(phi_s - phi_f),
-            f"{prefix}_err1_pieces": piece_mass_error(system)}
+            f"{prefix}_err1_pieces": piece_mass_error(system, x, n, w_s, sides)}
 
 
-def piece_mass_error(system) -> float:
+def piece_mass_error(system, x: np.ndarray, n: np.ndarray, w_s: np.ndarray,
+                     sides: dict[str, tuple[np.ndarray, np.ndarray]]) -> float:
     """Largest ``|Φ^S_P − Φ_box,P|`` over the connected fluid pieces P: (46) holds for the whole
     fluid; it holds for each piece because a node carries one set of unknowns per piece
     (:class:`fsci.cut.state.CutState`), so no flow passes between pieces that the bodies
-    separate (a shut valve)."""
-    from fsci.post.forces import interface_flux_points
-
+    separate (a shut valve). ``x, n, w_s``: the Γ^FS points, normals and solid fluxes of
+    :func:`fsci.post.forces.interface_flux_points`; ``sides``: :func:`boundary_flux_points`
+    of each side of the box."""
     fluid = system.fluid
     cut = system.cut
     if not cut.pieces:
         return 0.0
     n_pieces = len(cut.pieces)
     nudge = 1e-6 * float(fluid.grid.cell_size.min())
-    x, n, _, phi_s = interface_flux_points(system)
     # a probe just off a Γ^FS piece may land in a closed film: piece_of takes the nearest piece
-    err = np.bincount(cut.piece_of(x + nudge * n), weights=phi_s, minlength=n_pieces)
-    for side in ("left", "right", "bottom", "top"):
-        mid, flux = boundary_flux_points(fluid, side)
+    err = np.bincount(cut.piece_of(x + nudge * n), weights=w_s, minlength=n_pieces)
+    for side, (mid, flux) in sides.items():
         inward = -np.asarray(fluid.grid.side_normal(side), float)
         err -= np.bincount(cut.piece_of(mid + nudge * inward), weights=flux, minlength=n_pieces)
     return float(np.max(np.abs(err)))
