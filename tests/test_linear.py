@@ -59,6 +59,7 @@ def _factorised(A: sp.csr_matrix, b: np.ndarray) -> PardisoSolver:
 
 
 @pytest.mark.skipif("pardiso" not in available_backends(), reason="PARDISO not available")
+@pytest.mark.parametrize("n", [30, 150])  # 900 unknowns (one MKL thread) and 22,500 (two)
 @pytest.mark.parametrize("shift, rtol, reused, krylov", [
     (0.52, 0.0, True, 7),     # close: GMRES with the old factors reaches round-off (1e-10)
     (0.52, 1e-3, True, 3),    # ... and a forcing term of 1e-3 in fewer iterations
@@ -66,11 +67,10 @@ def _factorised(A: sp.csr_matrix, b: np.ndarray) -> PardisoSolver:
     (0.6, 1e-3, True, 4),     # ... but to 1e-3 with the old factors
     (40.0, 1e-3, False, None),  # far: factorised anew even for 1e-3
 ])
-def test_reused_factors_solve_to_the_requested_residual(shift, rtol, reused, krylov):
+def test_reused_factors_solve_to_the_requested_residual(n, shift, rtol, reused, krylov):
     """A matrix near the factorised one is solved by GMRES preconditioned with the old factors,
     to the relative residual asked for (the inexact-Newton forcing term; round-off when 0);
-    otherwise it is factorised and solved to round-off."""
-    n = 150  # 22,500 unknowns: two MKL threads (above PardisoSolver.SMALL)
+    otherwise it is factorised and solved to round-off. At every size (decision 37)."""
     b = np.random.default_rng(3).standard_normal(n * n)
     solver = _factorised(_convection_diffusion(n, 0.5), b)
     A1 = _convection_diffusion(n, shift)

@@ -19,9 +19,9 @@ not reach the relative true residual asked for (``1e-10``, or Newton's forcing t
 is larger, :func:`fsci.solver.newton.forcing_term`) within ``max_krylov`` iterations is the new
 matrix factorised. At every size this pays: on the coarse stamp (2,076 unknowns, one thread)
 a factorisation and solve cost 3.3 ms, a Krylov step with the old factors about 0.35 ms, and
-the second and third Newton iterations of a step get there in two or three. The factors are never
-carried into the next step, so a restarted run stays
-bit-identical (Newton's stopping test is always on the true nonlinear residual).
+the second and third Newton iterations of a step get there in two or three. The factors are
+never carried into the next step, so a restarted run stays bit-identical (Newton's stopping
+test is always on the true nonlinear residual).
 
 The interface (``solve(A, b, pattern_key)``) is what a distributed backend (PETSc/MUMPS) would
 implement too.
