@@ -331,8 +331,13 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("run", type=Path, nargs="?", help="output folder of `fsci run pump`")
     ap.add_argument("--geometry", action="store_true", help="draw the reconstructed geometry")
     ap.add_argument("--snapshots", action="store_true", help="field snapshots of the run at characteristic instants")
-    ap.add_argument("--figures", type=Path, default=ROOT / "docs" / "figures")
+    ap.add_argument("--figures", type=Path, default=None,
+                    help="folder of the figures (default: RUN/figures, or docs/figures for --geometry); "
+                         "docs/figures only when given")
     args = ap.parse_args(argv)
+    if args.figures is None:
+        args.figures = args.run / "figures" if args.run is not None else ROOT / "docs" / "figures"
+    args.figures.mkdir(parents=True, exist_ok=True)
     if args.geometry:
         geometry(args.figures)
     if args.run is not None:
