@@ -179,6 +179,9 @@ class System:
             self.stab_scale = float(np.max(np.abs(f.V), initial=0.0))
             if it > 1:
                 f.Vbar = f.V.copy()
+        if it > 1:
+            for term in self.extra_terms:  # contact that swings back and forth is held (decision 38)
+                term.track_case_swings()
         if f is None or not self.solids or it == 1 or not self.moving():
             return False
         st = self.fluid.spec.interface

@@ -245,6 +245,30 @@ def test_search_rejects_surfaces_seen_through_a_thin_body(y_top_other):
     np.testing.assert_allclose(g, -(y_top_other - 0.0), atol=1e-12)
 
 
+def test_search_rejects_a_face_seen_through_a_thin_body_that_it_slightly_penetrates():
+    """A flap lying on a strip 0.01 thick with its blunt tip pressed 3e-4 into the strip's top
+    face (the pump's inflow valve at t = 0.28668): the flap's short tip face lies inside the
+    strip and faces the strip's bottom face, which sees it through the strip at the gap -0.0098
+    with a ray that ends inside the strip; no contact partner (on the pump such a pair gave a
+    contact pressure fifty times the real one). The penetration of the top face by the flap's
+    lower face is (gaps -3e-4 … -1e-4)."""
+    from fsci.geometry.search import Surface, find_pieces, gap_along_normal
+
+    own = _strip_surface(0, 0.0, 0.01)
+    # flap, counter-clockwise: lower face (0.45, 0.0097) -> (1, 0.0099), end, upper face to
+    # (0.452, 0.00998), tip face back to (0.45, 0.0097) (outward normal about (-0.14, 0.99))
+    flap = np.array([[0.45, 0.0097], [1.0, 0.0099], [1.0, 0.013], [0.452, 0.00998]])
+    other = Surface(1, flap, np.array([[0, 1], [1, 2], [2, 3], [3, 0]]), np.zeros(4, dtype=np.int64),
+                    np.zeros(4, dtype=np.int64))
+    pc = find_pieces([own, other], 0, radius=0.1)
+    A, B = own.x[own.edges[pc.edge, 0]], own.x[own.edges[pc.edge, 1]]
+    P, Q = other.x[other.edges[pc.opp_edge, 0]], other.x[other.edges[pc.opp_edge, 1]]
+    g, _ = gap_along_normal(A, B, P, Q, 0.5 * (pc.s0 + pc.s1))
+    assert len(pc) >= 5
+    assert np.all(own.normals()[pc.edge, 1] > 0.99)  # only the top face has a partner
+    assert np.all(pc.opp_edge == 0) and np.all((g > -3.01e-4) & (g < -0.99e-4))
+
+
 def _trace_constant_by_generalised_eigenproblem(X: np.ndarray, edge: int, E: float, nu: float,
                                                  n_volume: int = 3, n_edge: int = 5) -> float:
     """Reference for the trace constant of Remark 7, built independently of the kernel: K with

@@ -117,6 +117,40 @@ def test_case_iii_variants_differ_only_in_case_iii():
     assert np.abs(ra - rb).max() > 1e-6
 
 
+def test_a_contact_that_swings_is_held_for_the_rest_of_the_step():
+    """Dry points (Γ^SC) of an edge whose number of contact points reverses twice within a step
+    (here forced: case IV, II, IV, II in four iterates) are held in contact for the rest of the
+    step (decision 38): after the fourth iterate, not before, the edge's points with g_n <= 0
+    are case II although C > 0 there, its point with g_n > 0 stays case IV, no other point
+    changes, the fluid rows are unchanged (dry points load only the solid), the Jacobian of the
+    held state is exact, and the next step decides afresh."""
+    system, ctx, x0 = two_bodies_in_fluid("remark6")
+    system.scatter(x0)
+    term = system.extra_terms[0]
+    r_free = system.assemble(ctx, want_matrix=False).rhs.copy()
+    free = term.out.copy()
+    swing = term._out_dry & (free[:, 0, tk.O_CASE] == tk.CASE_IV)
+    gap = free[..., tk.O_GAP]
+    assert swing.any() and np.any(gap[swing] > 0) and np.any(gap[swing] <= 0)
+    for k, case in enumerate([tk.CASE_IV, tk.CASE_II, tk.CASE_IV, tk.CASE_II]):
+        assert not term._held.any()
+        term.out[swing, :, tk.O_CASE] = case
+        term.track_case_swings()
+    assert term._held.sum() == len(set(term.pieces(system).edge[swing]))
+    r_held = system.assemble(ctx, want_matrix=False).rhs
+    case = term.out[..., tk.O_CASE]
+    flipped = swing[:, None] & (gap <= 0)
+    assert np.all(case[flipped] == tk.CASE_II) and np.all(case[~flipped] == free[..., tk.O_CASE][~flipped])
+    assert np.all(term.out[..., tk.O_CC][flipped] - term.out[..., tk.O_F][flipped] > 0)  # C > 0: held, not decided
+    fluid = np.concatenate([system.field_dofs["velocity"], system.field_dofs["pressure"]])
+    disp = system.field_dofs["displacement"]
+    np.testing.assert_array_equal(r_held[fluid], r_free[fluid])
+    assert np.abs(r_held[disp] - r_free[disp]).max() > 1e-3
+    check_jacobian(system, ctx, x0, h=1e-7, label="held contact")
+    system.begin_step(ctx)
+    assert not term._held.any()
+
+
 def sweep(n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The built-in ``contact-sweep`` with steps of ``1/n_steps`` of the push. Returns the load
     level, the total vertical interface force on the block and the first Newton residual of

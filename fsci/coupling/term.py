@@ -42,6 +42,7 @@ from fsci.physics.fluid import N_CELL_PARAMETERS
 
 GAP_LAW = "gap_law"
 CASE_NAMES = ("I", "II", "III", "IV")
+HOLD_AFTER_SWINGS = 2  # reversals of a dry edge's number of contact points in a step before it is held
 _CORNERS = tk.CORNERS  # reference corners of the Q1 element, a constant of the kernels
 
 
@@ -197,7 +198,45 @@ class CouplingTerm:
         self._old: dict[str, np.ndarray] | None = None
         self.out = np.zeros((0, len(self.gp), tk.N_OUT))
         self._out_body = np.zeros(0, dtype=np.int64)
+        self._out_edge = np.zeros(0, dtype=np.int64)
+        self._out_dry = np.zeros(0, dtype=bool)
+        self._edge_offset = np.concatenate([[0], np.cumsum([len(e) for e in self._edges])]).astype(np.int64)
+        self._reset_swings()
         self.update_penalty(system)
+
+    def _reset_swings(self) -> None:
+        """Per coupling edge (all bodies, concatenated): number of contact points at the last
+        iteration, direction of its last change, reversals, seen; and the held edges."""
+        n = int(self._edge_offset[-1])
+        self._swing = np.zeros((n, 4), dtype=np.int64)
+        self._held = np.zeros(n, dtype=bool)  # replaced (not changed in place) when it changes: a cache key
+
+    def track_case_swings(self) -> None:
+        """After the assembly of a Newton iterate: hold in contact, for the rest of the step, the
+        dry points (Γ^SC, with an opposite surface, g_n <= 0) of every edge whose number of
+        contact points (case II) has reversed its direction ``HOLD_AFTER_SWINGS`` times in the
+        step (decision 38). Where the fluid traction extended to the two sides of a contact zone
+        differs (each body's from its own wetted end), the switch (29) can have no solution near
+        the state: on the pump's inflow valve at t = 0.28668 nine points of one flap went from
+        case II to IV and back in every iteration (12, 21, 12, 20, ... contact points), down to
+        steps of 3e-9. A held point gets the contact traction; the next step decides afresh."""
+        dry = self._out_dry
+        if not dry.any():
+            return
+        key = self._edge_offset[self._out_body[dry]] + self._out_edge[dry]
+        n_contact = np.sum(self.out[dry][..., tk.O_CASE] == tk.CASE_II, axis=1)
+        present = np.zeros(len(self._swing), dtype=bool)
+        present[key] = True
+        count = np.bincount(key, weights=n_contact, minlength=len(self._swing)).astype(np.int64)
+        st = self._swing
+        d = np.where(present & (st[:, 3] == 1), np.sign(count - st[:, 0]), 0)
+        st[:, 2] += (d != 0) & (st[:, 1] != 0) & (d != st[:, 1])
+        st[:, 1] = np.where(d != 0, d, st[:, 1])
+        st[present, 0] = count[present]
+        st[present, 3] = 1
+        held = st[:, 2] >= HOLD_AFTER_SWINGS
+        if not np.array_equal(held, self._held):
+            self._held = held
 
     @staticmethod
     def _contact_indices(i: int, s, edges: np.ndarray) -> np.ndarray:
@@ -272,7 +311,7 @@ class CouplingTerm:
         depends only on the pieces, the step and the step's frozen data; that part is gathered
         once per (pieces, step, level) and ``z`` is one indexed read of the state per call."""
         f = system.fluid
-        key = (self.pieces(system), ctx, level, *(s.Un for s in system.solids), *(s.Vn for s in system.solids),
+        key = (self.pieces(system), ctx, level, self._held, *(s.Un for s in system.solids), *(s.Vn for s in system.solids),
                *(s.gnode for s in system.solids), *self.phi,
                *((f.Vbar, f.Vn, f.gnode) if f is not None else ()))
         cache = self.__dict__.setdefault("_static_cache", {})
@@ -378,6 +417,8 @@ class CouplingTerm:
         has_opp = pc.opp_body >= 0
         has_ext = pc.ext_edge >= 0
         flags = np.where(has_opp, tk.HAS_OPP, 0) | np.where(pc.fs, tk.ON_FS, 0) | np.where(has_ext, tk.HAS_EXT, 0)
+        held = has_opp & ~pc.fs & self._held[self._edge_offset[pc.body] + pc.edge]
+        flags |= np.where(held, tk.HELD, 0)
         transient = not ctx.static
         c_new = 1.0 / (ctx.theta * ctx.dt) if transient else 0.0
         moving = False  # data evaluated at the current Gauss points
@@ -494,7 +535,7 @@ class CouplingTerm:
 
     def _current(self, system, ctx: StepContext) -> dict:
         """Per-piece data of the current state (gathered once per state and step)."""
-        key = (self._geometry_key(system), ctx.t_new, ctx.dt, ctx.theta,
+        key = (self._geometry_key(system), ctx.t_new, ctx.dt, ctx.theta, self._held.tobytes(),
                *(s.U.tobytes() for s in system.solids),
                *((system.fluid.V.tobytes(), system.fluid.P.tobytes()) if system.fluid is not None else ()))
         if self._data_key != key:
@@ -521,6 +562,7 @@ class CouplingTerm:
 
     def begin_step(self, system, ctx: StepContext) -> None:
         self.update_penalty(system)
+        self._reset_swings()
 
     def store_old_level(self, system, ctx: StepContext) -> None:
         """θ < 1: the θ-weighted coupling terms at the converged state of ``t_old`` (this call
@@ -552,7 +594,8 @@ class CouplingTerm:
         w_t = 1.0 if ctx.static else ctx.theta
         self._run(system, ctx, d, asm, (1.0, w_t, 1.0), out)
         self.out = out
-        self._out_body = self.pieces(system).body
+        pc = self.pieces(system)
+        self._out_body, self._out_edge, self._out_dry = pc.body, pc.edge, ~pc.fs & (pc.opp_body >= 0)
         if self._old is not None:
             st = asm.layout.start
             c = 1.0 - ctx.theta

@@ -56,7 +56,9 @@ N_SLOTS = 18  # node slots: own element 4, opposite element 4, fluid cell 4, ext
 OFF_OPP, OFF_CELL, OFF_EXT, OFF_EDGE = 8, 16, 28, 40
 
 # flags (bit field per piece)
-HAS_OPP, ON_FS, HAS_EXT, SLIP_LAW, HAS_FLUID = 1, 2, 4, 8, 16
+HAS_OPP, ON_FS, HAS_EXT, SLIP_LAW, HAS_FLUID, HELD = 1, 2, 4, 8, 16, 32
+# HELD: a dry piece whose contact swung back and forth in this step's iterations; its points with
+# g_n <= 0 stay in contact for the rest of the step (CouplingTerm.track_case_swings, decision 38)
 # integer data per piece
 I_EO, I_LAWO, I_EM, I_LAWM, I_D0, I_D1, I_FLAGS = range(7)
 N_INT = 7
@@ -151,6 +153,7 @@ def piece_residual(z, r, out, ip, fp, Xo, prmo, Xm, prmm, W, vq, kap, Xe, We, vq
     on_fs = (flags & ON_FS) != 0
     has_ext = (flags & HAS_EXT) != 0
     slip_law = (flags & SLIP_LAW) != 0
+    held = (flags & HELD) != 0
     eo = ip[I_EO]
     ia = eo
     ib = (eo + 1) % 4
@@ -263,7 +266,8 @@ def piece_residual(z, r, out, ip, fp, Xo, prmo, Xm, prmm, W, vq, kap, Xe, We, vq
         elif has_ext:
             F = Fe
             F_applied = Fe_applied
-        contact = has_opp and (Cc.real - F.real <= 0.0)  # C = 0 (touching, unloaded) keeps bodies supported
+        # C = 0 (touching, unloaded) keeps bodies supported
+        contact = has_opp and (Cc.real - F.real <= 0.0 or (held and gap.real <= 0.0))
         # ------------------------------------------------ tangential: Navier slip (37), law (40)
         lam = 0.0 * z[0]
         bet = 0.0 * z[0]

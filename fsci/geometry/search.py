@@ -10,9 +10,10 @@ element edges (paper Remark 9), each piece seeing one opposite segment.
 
 Rules: the opposite segment must face the edge (``n_e · n_f < -0.1``, 4C's criterion); the gap
 ``g_n = (x̌ - x)·n`` at the piece's midpoint must satisfy ``|g_n| <= radius`` (beyond the
-cut-off ``g_n = ∞``); a segment behind the surface (``g_n < 0``) whose ray crosses another edge
-of the own surface is seen through a thin part of the own body, not penetrated, and is no
-candidate; where several opposite segments are hit, the nearest (smallest ``|g_n|``) wins. (The same projection will give the gap of the slip-length law (40) once contact and
+cut-off ``g_n = ∞``); a segment behind the surface (``g_n < 0``) is seen through a thin part of the own body, not
+penetrated, and is no candidate, if the ray from the point to twice its depth crosses another
+edge of the own surface (a penetration deeper than half the body's local thickness cannot be
+told from a segment seen through it); where several opposite segments are hit, the nearest (smallest ``|g_n|``) wins. (The same projection will give the gap of the slip-length law (40) once contact and
 fluid are combined.)
 
 End-point descriptors: ``-1`` fixed parameter (``s0``/``s1`` as given), ``0``/``1`` the
@@ -97,20 +98,25 @@ def gap_along_normal(A, B, P, Q, s):
 
 
 def _seen_through(so: Surface, edge: np.ndarray, A: np.ndarray, B: np.ndarray, s: np.ndarray,
-                  g: np.ndarray) -> np.ndarray:
+                  g: np.ndarray, opp: np.ndarray) -> np.ndarray:
     """For candidates behind the own surface (``g < 0``): True where the ray from the point
-    ``A + s (B - A)`` back to the opposite point ``x̌ = x + g n`` leaves the own body, i.e. crosses
-    another edge of the own surface. Such a segment is seen through a thin part of the own body
-    (a flap's tip, the far side of a wedge), not penetrated; a true penetration ends inside the
-    own body. Decides by geometry, not by the size of ``g``, so it holds on every mesh."""
+    ``x = A + s (B - A)`` through the opposite point ``x̌ = x + g n`` to ``x + 2 g n`` leaves the
+    own body, i.e. crosses another edge of the own surface (``opp``: the opposite edge where it
+    belongs to the own surface, self contact, else -1; not counted). Such a segment is seen
+    through a thin part of the own body (a flap's tip, the far side of a wedge), not penetrated:
+    a true penetration ends inside the own body, and at most half its local thickness deep.
+    The ray goes on past x̌ because a body that penetrates the own one slightly puts x̌ inside
+    the own body even when it is seen through it: on the pump a flap's tip pressed 3e-5 into
+    the other flap's face was found, from that flap's far face, at the gap -2e-3 (docs/
+    architecture.md, decision 38). Decides by geometry, not by the size of ``g``, so it holds on
+    every mesh."""
     t = B - A
     n = np.column_stack([t[:, 1], -t[:, 0]]) / np.linalg.norm(t, axis=1)[:, None]
     x = A + s[:, None] * t
-    # stop just short of x̌: for self contact the opposite edge belongs to the own surface
-    xb = x + (1.0 - 1e-9) * g[:, None] * n
+    xb = x + 2.0 * g[:, None] * n
     own = shapely.STRtree(shapely.linestrings(np.stack([so.x[so.edges[:, 0]], so.x[so.edges[:, 1]]], axis=1)))
     ray, hit = own.query(shapely.linestrings(np.stack([x, xb], axis=1)), predicate="intersects")
-    other = hit != edge[ray]  # the ray starts on its own edge
+    other = (hit != edge[ray]) & (hit != opp[ray])  # the ray starts on its own edge
     out = np.zeros(len(edge), dtype=bool)
     out[ray[other]] = True
     return out
@@ -221,7 +227,8 @@ def _resolve_overlaps(surfaces, own, e, osf, f, s0, s1, d0, d1, radius, split) -
     keep = ag <= radius
     behind = np.nonzero(keep & (g < 0.0))[0]
     if len(behind):
-        keep[behind] = ~_seen_through(so, edge[behind], A[behind], B[behind], mid[iv][behind], g[behind])
+        opp = np.where(osf[c][behind] == own, f[c][behind], -1)
+        keep[behind] = ~_seen_through(so, edge[behind], A[behind], B[behind], mid[iv][behind], g[behind], opp)
     iv, c, ag = iv[keep], c[keep], ag[keep]
     if len(iv) == 0:
         return empty
