@@ -179,7 +179,7 @@ class Simulation:
             try:
                 self._in_solve = True  # a signal now stops at once: the step start is restored
                 try:
-                    self.system.begin_step(ctx)
+                    self.system.begin_step(ctx, attempt=cuts)
                 except SolverError as exc:  # the predicted start cannot be cut: a smaller step predicts less
                     rep = NewtonReport(False, 0, reason=f"step start cannot be evaluated: {exc}")
                 else:

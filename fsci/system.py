@@ -40,6 +40,7 @@ class System:
         self._loops = [s.mesh.boundary_loops() for s in self.solids]
         self.cut: CutState | None = None
         self.layout_changes = 0
+        self.attempt = 0  # failed attempts of the current step before this one
         self._cut_frozen = False
         self._follow_until = 0  # the cut follows the iterates up to this iteration of the step
         self._dry_seen = shapely.Polygon()  # islands of this step's cuts
@@ -179,8 +180,8 @@ class System:
             self.stab_scale = float(np.max(np.abs(f.V), initial=0.0))
             if it > 1:
                 f.Vbar = f.V.copy()
-        if it > 1:
-            for term in self.extra_terms:  # contact that swings back and forth is held (decision 38)
+        if it > 1 and self.attempt > 0:
+            for term in self.extra_terms:  # in a retry, contact that swings is held (decision 38)
                 term.track_case_swings()
         if f is None or not self.solids or it == 1 or not self.moving():
             return False
@@ -324,7 +325,10 @@ class System:
 
 
     # ----------------------------------------------------------------- steps
-    def begin_step(self, ctx: StepContext) -> None:
+    def begin_step(self, ctx: StepContext, attempt: int = 0) -> None:
+        """Start the step ``ctx``; ``attempt`` counts the failed attempts of this step before
+        (their retries may hold a swinging contact, decision 38)."""
+        self.attempt = attempt
         for term in self.extra_terms:  # the old time level, before anything of the new step moves
             term.store_old_level(self, ctx)
         for s in self.solids:

@@ -118,12 +118,13 @@ def test_case_iii_variants_differ_only_in_case_iii():
 
 
 def test_a_contact_that_swings_is_held_for_the_rest_of_the_step():
-    """Dry points (Γ^SC) of an edge whose number of contact points reverses twice within a step
-    (here forced: case IV, II, IV, II in four iterates) are held in contact for the rest of the
-    step (decision 38): after the fourth iterate, not before, the edge's points with g_n <= 0
+    """Dry points (Γ^SC) of an edge whose number of contact points reverses twice within a
+    retry of a step (here forced: case IV, II, IV, II in four iterates) are held in contact for
+    the rest of the step (decision 38): after the fourth iterate, not before, the edge's points with g_n <= 0
     are case II although C > 0 there, its point with g_n > 0 stays case IV, no other point
     changes, the fluid rows are unchanged (dry points load only the solid), the Jacobian of the
-    held state is exact, and the next step decides afresh."""
+    held state is exact, the next step decides afresh, and a step's first attempt holds
+    nothing."""
     system, ctx, x0 = two_bodies_in_fluid("remark6")
     system.scatter(x0)
     term = system.extra_terms[0]
@@ -149,6 +150,12 @@ def test_a_contact_that_swings_is_held_for_the_rest_of_the_step():
     check_jacobian(system, ctx, x0, h=1e-7, label="held contact")
     system.begin_step(ctx)
     assert not term._held.any()
+    tracked = []  # swings are tracked in the retries of a step, not in its first attempt
+    term.track_case_swings = lambda: tracked.append(system.attempt)
+    system.before_iteration(2)
+    system.begin_step(ctx, attempt=1)
+    system.before_iteration(2)
+    assert tracked == [1]
 
 
 def sweep(n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
