@@ -173,13 +173,14 @@ class Simulation:
         static = p.time.kind == "static"
         dt = self.next_dt()
         cuts = 0
+        hold = False  # contact that swings is held (decision 38)
         while True:
             saved = snapshot(self.system)
             ctx = StepContext(self.t, self.t + dt, dt, p.time.theta, static)
             try:
                 self._in_solve = True  # a signal now stops at once: the step start is restored
                 try:
-                    self.system.begin_step(ctx, attempt=cuts)
+                    self.system.begin_step(ctx, hold_swings=hold)
                 except SolverError as exc:  # the predicted start cannot be cut: a smaller step predicts less
                     rep = NewtonReport(False, 0, reason=f"step start cannot be evaluated: {exc}")
                 else:
@@ -200,6 +201,15 @@ class Simulation:
             if rep.converged:
                 break
             restore(self.system, saved)
+            if not hold and dt < self.nominal_dt(self.t)[0] and self.system.contact_swung():
+                # a step already cut below the schedule in which contact swung back and forth: a
+                # smaller one does not help (the residual's round-off floor rises as 1/Δt), the
+                # same one with that contact held does (decision 38)
+                hold = True
+                if self.monitor is not None:
+                    self.monitor.message(f"step {self.step + 1} at t={self.t:.6g}: {rep.reason}; "
+                                         f"repeated with the contact that swung held")
+                continue
             cuts += 1
             new_dt = dt * p.solver.step_cut_factor
             if self.monitor is not None:

@@ -40,7 +40,7 @@ class System:
         self._loops = [s.mesh.boundary_loops() for s in self.solids]
         self.cut: CutState | None = None
         self.layout_changes = 0
-        self.attempt = 0  # failed attempts of the current step before this one
+        self.hold_swings = False  # hold contact that swings in this attempt (decision 38)
         self._cut_frozen = False
         self._follow_until = 0  # the cut follows the iterates up to this iteration of the step
         self._dry_seen = shapely.Polygon()  # islands of this step's cuts
@@ -122,6 +122,10 @@ class System:
             self.build_layout()
         return changed
 
+    def contact_swung(self) -> bool:
+        """Whether contact swung back and forth in the iterations of the last attempt (decision 38)."""
+        return any(term.swung for term in self.extra_terms)
+
     def converged_extra(self, settings) -> bool:
         """Additional convergence condition: for steady flow, the lagged stabilisation velocity
         changed by at most ``solver.outer_tol`` relative to the velocity (plus the increment
@@ -180,9 +184,9 @@ class System:
             self.stab_scale = float(np.max(np.abs(f.V), initial=0.0))
             if it > 1:
                 f.Vbar = f.V.copy()
-        if it > 1 and self.attempt > 0:
-            for term in self.extra_terms:  # in a retry, contact that swings is held (decision 38)
-                term.track_case_swings()
+        if it > 1:
+            for term in self.extra_terms:  # contact that swings (held in a repeated attempt, decision 38)
+                term.track_case_swings(hold=self.hold_swings)
         if f is None or not self.solids or it == 1 or not self.moving():
             return False
         st = self.fluid.spec.interface
@@ -325,10 +329,10 @@ class System:
 
 
     # ----------------------------------------------------------------- steps
-    def begin_step(self, ctx: StepContext, attempt: int = 0) -> None:
-        """Start the step ``ctx``; ``attempt`` counts the failed attempts of this step before
-        (their retries may hold a swinging contact, decision 38)."""
-        self.attempt = attempt
+    def begin_step(self, ctx: StepContext, hold_swings: bool = False) -> None:
+        """Start the step ``ctx``; with ``hold_swings`` contact that swings in its iterations is
+        held (a repeated attempt, decision 38)."""
+        self.hold_swings = hold_swings
         for term in self.extra_terms:  # the old time level, before anything of the new step moves
             term.store_old_level(self, ctx)
         for s in self.solids:

@@ -210,18 +210,20 @@ class CouplingTerm:
         n = int(self._edge_offset[-1])
         self._swing = np.zeros((n, 4), dtype=np.int64)
         self._held = np.zeros(n, dtype=bool)  # replaced (not changed in place) when it changes: a cache key
+        self.swung = False  # an edge reversed HOLD_AFTER_SWINGS times in this attempt
 
-    def track_case_swings(self) -> None:
-        """After the assembly of a Newton iterate of a step's retry (called by
-        :meth:`fsci.system.System.before_iteration` once an attempt failed): hold in contact,
-        for the rest of the step, the dry points (Γ^SC, with an opposite surface, g_n <= 0) of every edge whose number of
+    def track_case_swings(self, hold: bool) -> None:
+        """After the assembly of a Newton iterate: count the swings, and with ``hold`` (a step
+        repeated after an attempt in which contact swung, decision 38) hold in contact, for the
+        rest of the step, the dry points (Γ^SC, with an opposite surface, g_n <= 0) of every edge whose number of
         contact points (case II) has reversed its direction ``HOLD_AFTER_SWINGS`` times in the
         step (decision 38). Where the fluid traction extended to the two sides of a contact zone
         differs (each body's from its own wetted end), the switch (29) can have no solution near
         the state: on the pump's inflow valve at t = 0.28668 nine points of one flap went from
         case II to IV and back in every iteration (12, 21, 12, 20, ... contact points), down to
         steps of 3e-9. A held point gets the contact traction; the next step decides afresh.
-        Not in a first attempt: on the r = 2 pump at t = 0.0386 a hold there made the step of
+        Not in a step's first attempt (:meth:`fsci.simulation.Simulation.advance` decides when
+        to repeat one with the hold): on the r = 2 pump at t = 0.0386 a hold made the step of
         4e-4 converge with a mass-balance error of 4.3e-5 of the flux, where the two halves of
         the cut step converge freely at solver level."""
         dry = self._out_dry
@@ -239,7 +241,8 @@ class CouplingTerm:
         st[present, 0] = count[present]
         st[present, 3] = 1
         held = st[:, 2] >= HOLD_AFTER_SWINGS
-        if not np.array_equal(held, self._held):
+        self.swung = bool(held.any())
+        if hold and not np.array_equal(held, self._held):
             self._held = held
 
     @staticmethod
