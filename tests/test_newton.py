@@ -107,15 +107,15 @@ def test_the_cut_keeps_following_while_newton_converges():
 
 
 class NoisySystem(OvershootingSystem):
-    """``R(x) = A x − b + e`` with ``A`` of eigenvalues 1 … 1e-3 and a fresh round-off ``e`` of
+    """``R(x) = A x − b + e`` with ``A`` of eigenvalues 1 … 1e-5 and a fresh round-off ``e`` of
     size 1e-12 at every assembly: below the residual tolerance 1e-10, but its solve moves ``x`` by
-    up to 1e-9, above the increment tolerance 1e-10. ``own_after``: the state is its cut's own
+    up to 1e-7, far above the increment tolerance 1e-10. ``own_after``: the state is its cut's own
     only once :meth:`follow_cut_again` was called (a frozen cut the bodies moved away from)."""
 
     def __init__(self, n: int, own_after_recut: bool = False) -> None:
         super().__init__(n, 1.0, follows=False)
         q, _ = np.linalg.qr(np.random.default_rng(3).standard_normal((n, n)))
-        self.A = q @ np.diag(np.geomspace(1.0, 1e-3, n)) @ q.T
+        self.A = q @ np.diag(np.geomspace(1.0, 1e-5, n)) @ q.T
         self.noise = np.random.default_rng(4)
         self.own = not own_after_recut
         self.recut_at: list[int] = []
@@ -140,15 +140,16 @@ class NoisySystem(OvershootingSystem):
 def test_newton_stops_at_the_round_off_floor():
     """A residual at its round-off floor (below the tolerance, no longer falling) ends Newton
     although the solves of that round-off keep moving the state by more than the increment
-    tolerance (decision 38): converged at the second iterate whose residual passes, within the
-    round-off's reach of the solution. A frozen cut that is not the state's own is left for a
-    re-cut at the first iterate whose residual passes, not after the increments pass too."""
+    tolerance (decision 38): converged within a few iterates of the first whose residual passes
+    (without the rule: not in 25 iterations), within the round-off's reach of the solution. A
+    frozen cut that is not the state's own is left for a re-cut at the first iterate whose
+    residual passes, not after the increments pass too."""
     system = NoisySystem(6)
     rep = _solve(system, relaxation=False)
     print(rep.iterations, rep.residuals)
     passed = [k for k, r in enumerate(rep.residuals) if r <= 1e-10]
-    assert rep.converged and rep.iterations == passed[1]
-    np.testing.assert_allclose(system.x, system.solution(), rtol=0, atol=1e-7)
+    assert rep.converged and rep.iterations <= passed[0] + 4
+    np.testing.assert_allclose(system.x, system.solution(), rtol=0, atol=1e-5)
     recut = NoisySystem(6, own_after_recut=True)
     rep = _solve(recut, relaxation=False)
     assert rep.converged and recut.recut_at == [passed[0] + 1]
