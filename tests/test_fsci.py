@@ -141,7 +141,8 @@ def test_a_contact_that_swings_is_held_for_the_rest_of_the_step():
             term.out[swing, :, tk.O_CASE] = case
             term._out_dry = swing | term._out_dry
             term.track_case_swings(hold)
-        assert system.contact_swung() and term._held.sum() == (len(set(term.pieces(system).edge[swing])) if hold else 0)
+        edges = len(set(term.pieces(system).edge[swing]))
+        assert system.contact_swung() and term._held.sum() == (edges if hold else 0)
     r_held = system.assemble(ctx, want_matrix=False).rhs
     case = term.out[..., tk.O_CASE]
     flipped = swing[:, None] & (gap <= 0)

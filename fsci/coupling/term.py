@@ -213,11 +213,11 @@ class CouplingTerm:
         self.swung = False  # an edge reversed HOLD_AFTER_SWINGS times in this attempt
 
     def track_case_swings(self, hold: bool) -> None:
-        """After the assembly of a Newton iterate: count the swings, and with ``hold`` (a step
-        repeated after an attempt in which contact swung, decision 38) hold in contact, for the
-        rest of the step, the dry points (Γ^SC, with an opposite surface, g_n <= 0) of every edge whose number of
-        contact points (case II) has reversed its direction ``HOLD_AFTER_SWINGS`` times in the
-        step (decision 38). Where the fluid traction extended to the two sides of a contact zone
+        """After the assembly of a Newton iterate: count, per edge, the reversals of its number of
+        contact points (case II); with ``hold`` (a step repeated after an attempt in which contact
+        swung, decision 38) hold in contact, for the rest of the step, the dry points (Γ^SC, with
+        an opposite surface, g_n <= 0) of every edge that reversed ``HOLD_AFTER_SWINGS`` times.
+        Where the fluid traction extended to the two sides of a contact zone
         differs (each body's from its own wetted end), the switch (29) can have no solution near
         the state: on the pump's inflow valve at t = 0.28668 nine points of one flap went from
         case II to IV and back in every iteration (12, 21, 12, 20, ... contact points), down to
@@ -318,7 +318,8 @@ class CouplingTerm:
         depends only on the pieces, the step and the step's frozen data; that part is gathered
         once per (pieces, step, level) and ``z`` is one indexed read of the state per call."""
         f = system.fluid
-        key = (self.pieces(system), ctx, level, self._held, *(s.Un for s in system.solids), *(s.Vn for s in system.solids),
+        key = (self.pieces(system), ctx, level, self._held,
+               *(s.Un for s in system.solids), *(s.Vn for s in system.solids),
                *(s.gnode for s in system.solids), *self.phi,
                *((f.Vbar, f.Vn, f.gnode) if f is not None else ()))
         cache = self.__dict__.setdefault("_static_cache", {})

@@ -10,11 +10,12 @@ element edges (paper Remark 9), each piece seeing one opposite segment.
 
 Rules: the opposite segment must face the edge (``n_e · n_f < -0.1``, 4C's criterion); the gap
 ``g_n = (x̌ - x)·n`` at the piece's midpoint must satisfy ``|g_n| <= radius`` (beyond the
-cut-off ``g_n = ∞``); a segment behind the surface (``g_n < 0``) is seen through a thin part of the own body, not
-penetrated, and is no candidate, if the ray from the point to twice its depth crosses another
-edge of the own surface (a penetration deeper than half the body's local thickness cannot be
-told from a segment seen through it); where several opposite segments are hit, the nearest (smallest ``|g_n|``) wins. (The same projection will give the gap of the slip-length law (40) once contact and
-fluid are combined.)
+cut-off ``g_n = ∞``); a segment behind the surface (``g_n < 0``) is seen through a thin part of
+the own body, not penetrated, and is no candidate, if the ray from the point to twice its depth
+crosses another edge of the own surface (a penetration deeper than half the body's local
+thickness cannot be told from a segment seen through it); where several opposite segments are
+hit, the nearest (smallest ``|g_n|``) wins. The same projection gives the gap of the
+slip-length law (40).
 
 End-point descriptors: ``-1`` fixed parameter (``s0``/``s1`` as given), ``0``/``1`` the
 projection of the opposite segment's first/second node.

@@ -30,7 +30,7 @@ from fsci.solver.linear import LinearSolver
 DAMP_DOWN = 0.75
 DAMP_UP = 0.875
 FOLLOWING_RATE = 0.5  # the cut keeps following while each iteration reduces the residual by this
-FLOOR_RATE = 0.9  # a residual within the absolute tolerance that no longer falls by this factor is at its round-off floor
+FLOOR_RATE = 0.9  # a passing residual that no longer falls below this fraction is at its round-off floor
 BACKTRACK = 4  # halvings of a Newton update whose iterate cannot be evaluated, before the step is cut
 
 
