@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fsci.cut.state import END_BODY
 from fsci.geometry.search import Surface, find_pieces
 
 
@@ -38,16 +39,21 @@ class CouplingPieces:
     s0: np.ndarray  # parameter range on the edge (0 at its first node)
     s1: np.ndarray
     d0: np.ndarray  # end descriptors: -1 fixed, 0/1 projection of the opposite segment's node,
-    d1: np.ndarray  # 2/3 on the grid line x = c / y = c (fsci.cut.state.END_X, END_Y)
-    c0: np.ndarray  # grid-line coordinate of an end of kind 2/3
+    d1: np.ndarray  # 2/3 on the grid line x = c / y = c (fsci.cut.state.END_X, END_Y), 4 where the
+    # edge crosses another body's boundary edge c (fsci.cut.state.END_BODY)
+    c0: np.ndarray  # grid-line coordinate of an end of kind 2/3, the crossed edge of kind 4
     c1: np.ndarray
     cell: np.ndarray  # fluid part of the piece: cell + n_cells × fluid piece (CutState.part_conn; -1: none)
     fs: np.ndarray  # bounds the physical fluid (Γ^FS)
     opp_body: np.ndarray  # body of the opposite segment (-1: none, g_n = ∞)
     opp_edge: np.ndarray  # its index in the opposite body's coupling edges
+    end_body: np.ndarray  # a piece without one that ends where the node of an opposite segment
+    end_edge: np.ndarray  # projects (next to a piece with it): that segment (-1: none)
     ext_edge: np.ndarray  # extension point: edge of the same body (-1: none)
     ext_s: np.ndarray  # and its parameter on that edge
     ext_cell: np.ndarray  # fluid part on the fluid side of the extension point
+    ext_d: np.ndarray  # its descriptor: 4 where it is the crossing with another body's edge ext_c, else -1
+    ext_c: np.ndarray
 
     def __len__(self) -> int:
         return len(self.body)
@@ -102,7 +108,14 @@ def _search(boundaries: list[BoundaryOf], radius: float, self_contact: bool, spl
 def _merge(base: tuple[np.ndarray, ...], contact: tuple[np.ndarray, ...] | None) -> list[tuple]:
     """Split the base pieces of one body at the ends of its contact pieces and attach the
     opposite segment covering each sub-piece. Rows: (edge, s0, s1, d0, d1, c0, c1, cell, fs,
-    opposite body, opposite edge)."""
+    opposite body, opposite edge, end body, end edge).
+
+    Where an opposite node projects (Remark 9) the pieces on both sides end at the projection,
+    moving with the unknowns: a piece without an opposite segment there takes the neighbour's
+    (end body, end edge) for the geometry of that end. Both sides then move together, so the
+    pieces still tile the edge (on Γ^FS: the fluid boundary of the cut, discrete mass balance
+    (46)), and the Jacobian has the motion of the split, across which the traction can jump
+    (the slip law (40) of a gap on one side, none on the other)."""
     e, s0, s1, k0, l0, k1, l1, cell, fs = base
     rows = []
     by_edge: dict[int, list[int]] = {}
@@ -113,7 +126,7 @@ def _merge(base: tuple[np.ndarray, ...], contact: tuple[np.ndarray, ...] | None)
     for k in range(len(e)):
         cand = by_edge.get(int(e[k]))
         if not cand:
-            rows.append((e[k], s0[k], s1[k], k0[k], k1[k], l0[k], l1[k], cell[k], fs[k], -1, -1))
+            rows.append((e[k], s0[k], s1[k], k0[k], k1[k], l0[k], l1[k], cell[k], fs[k], -1, -1, -1, -1))
             continue
         cuts = np.unique([s0[k], s1[k]] + [v for j in cand for v in (c0[j], c1[j]) if s0[k] < v < s1[k]])
         for lo, hi in zip(cuts[:-1], cuts[1:]):
@@ -122,23 +135,37 @@ def _merge(base: tuple[np.ndarray, ...], contact: tuple[np.ndarray, ...] | None)
             mid = 0.5 * (lo + hi)
             hit = [j for j in cand if c0[j] <= mid <= c1[j]]
             j = hit[0] if hit else -1
-            # an end is the base piece's end (fixed or on a grid line), or where an opposite node
-            # projects (Remark 9, moving with the unknowns) — except on Γ^FS, whose pieces must tile
-            # the fluid boundary of the cut (discrete mass balance (46))
-            dl, cl = (k0[k], l0[k]) if lo == s0[k] else (
-                (cd0[j], 0.0) if j >= 0 and abs(lo - c0[j]) <= 1e-14 and not fs[k] else (-1, 0.0))
-            dh, ch = (k1[k], l1[k]) if hi == s1[k] else (
-                (cd1[j], 0.0) if j >= 0 and abs(hi - c1[j]) <= 1e-14 and not fs[k] else (-1, 0.0))
+            # an end is the base piece's end (fixed, on a grid line or another body's edge), or
+            # where an opposite node projects (Remark 9, moving with the unknowns)
+            geo = -1  # contact piece whose opposite segment gives a piece without one its end
+            dl, cl = (k0[k], l0[k]) if lo == s0[k] else (-1, 0.0)
+            if lo != s0[k]:
+                if j >= 0 and abs(lo - c0[j]) <= 1e-14:
+                    dl = cd0[j]
+                elif j < 0:
+                    nb = [i for i in cand if abs(lo - c1[i]) <= 1e-14 and cd1[i] >= 0]
+                    if nb:
+                        geo, dl = nb[0], cd1[nb[0]]
+            dh, ch = (k1[k], l1[k]) if hi == s1[k] else (-1, 0.0)
+            if hi != s1[k]:
+                if j >= 0 and abs(hi - c1[j]) <= 1e-14:
+                    dh = cd1[j]
+                elif j < 0:
+                    nb = [i for i in cand if abs(hi - c0[i]) <= 1e-14 and cd0[i] >= 0
+                          and (geo < 0 or (ob[i], oe[i]) == (ob[geo], oe[geo]))]
+                    if nb:
+                        geo, dh = nb[0], cd0[nb[0]]
             rows.append((e[k], lo, hi, dl, dh, cl, ch, cell[k], fs[k], ob[j] if j >= 0 else -1,
-                         oe[j] if j >= 0 else -1))
+                         oe[j] if j >= 0 else -1, ob[geo] if geo >= 0 else -1, oe[geo] if geo >= 0 else -1))
     return rows
 
 
 def _extension(x: np.ndarray, edges: np.ndarray, rows: np.ndarray, scale: float) -> np.ndarray:
-    """For the pieces ``rows`` of one body (columns edge, s0, s1, ..., cell, fs), the extension
-    point of every Γ^SC piece: ``(edge, s, cell)`` of the closest point of Γ^FS ∩ Γ^SC, or -1."""
+    """For the pieces ``rows`` of one body (columns edge, s0, s1, d0, d1, cell, fs, c0, c1), the
+    extension point of every Γ^SC piece: ``(edge, s, cell, d, c)`` of the closest point of
+    Γ^FS ∩ Γ^SC with the descriptor of the Γ^FS piece's end there, or -1."""
     n = len(rows)
-    ext = np.full((n, 3), -1.0)
+    ext = np.full((n, 5), -1.0)
     if n == 0:
         return ext
     e = rows[:, 0].astype(np.int64)
@@ -151,19 +178,19 @@ def _extension(x: np.ndarray, edges: np.ndarray, rows: np.ndarray, scale: float)
         return ext
     tol = 1e-9 * scale
     sc_pts = np.vstack([p0[~fs], p1[~fs]])
-    cand = []  # (point, edge, s, cell) of FS piece ends touching an SC piece end
+    cand = []  # (point, edge, s, cell, d, c) of FS piece ends touching an SC piece end
     for end, p in ((1, p0), (2, p1)):
         idx = np.nonzero(fs)[0]
         dist = np.min(np.linalg.norm(p[idx, None, :] - sc_pts[None, :, :], axis=2), axis=1)
         for k in idx[dist <= tol]:
-            cand.append((p[k], e[k], rows[k, end], rows[k, 5]))
+            cand.append((p[k], e[k], rows[k, end], rows[k, 5], rows[k, 2 + end], rows[k, 6 + end]))
     if not cand:
         return ext
     pts = np.array([c[0] for c in cand])
     for k in np.nonzero(~fs)[0]:
         mid = 0.5 * (p0[k] + p1[k])
         j = int(np.argmin(np.linalg.norm(pts - mid, axis=1)))
-        ext[k] = (cand[j][1], cand[j][2], cand[j][3])
+        ext[k] = cand[j][1:]
     return ext
 
 
@@ -189,17 +216,19 @@ def build_pieces(boundaries: list[BoundaryOf], cut, radius: float, self_contact:
     contact = _search(boundaries, radius, self_contact, split, n_fixed)
     cols = []
     for b, bd in enumerate(boundaries):
-        rows = np.array(_merge(base[b], contact.get(b)), dtype=float).reshape(-1, 11)
+        rows = np.array(_merge(base[b], contact.get(b)), dtype=float).reshape(-1, 13)
         scale = 1.0 + float(np.max(np.abs(bd.x))) if len(bd.x) else 1.0
-        ext = _extension(bd.x, bd.edges, rows[:, [0, 1, 2, 3, 4, 7, 8]], scale) if cut is not None and extension else \
-            np.full((len(rows), 3), -1.0)
+        ext = _extension(bd.x, bd.edges, rows[:, [0, 1, 2, 3, 4, 7, 8, 5, 6]], scale) if cut is not None and extension \
+            else np.full((len(rows), 5), -1.0)
+        ext[:, 3] = np.where(ext[:, 3] == END_BODY, END_BODY, -1)
         fs = rows[:, 8] > 0
         has_opp = rows[:, 9] >= 0
         keep = fs | has_opp | (ext[:, 0] >= 0)
         rows, ext = rows[keep], ext[keep]
         cols.append(np.column_stack([np.full(len(rows), b), rows, ext]))
-    a = np.vstack(cols) if cols else np.zeros((0, 15))
+    a = np.vstack(cols) if cols else np.zeros((0, 19))
     i = lambda c: a[:, c].astype(np.int64)  # noqa: E731
     return CouplingPieces(body=i(0), edge=i(1), s0=a[:, 2].copy(), s1=a[:, 3].copy(), d0=i(4), d1=i(5),
                           c0=a[:, 6].copy(), c1=a[:, 7].copy(), cell=i(8), fs=a[:, 9] > 0, opp_body=i(10),
-                          opp_edge=i(11), ext_edge=i(12), ext_s=a[:, 13].copy(), ext_cell=i(14))
+                          opp_edge=i(11), end_body=i(12), end_edge=i(13), ext_edge=i(14), ext_s=a[:, 15].copy(),
+                          ext_cell=i(16), ext_d=i(17), ext_c=a[:, 18].copy())

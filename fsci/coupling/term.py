@@ -33,6 +33,7 @@ from numba import njit
 from fsci.assembly import Assembly, ResidualAssembly
 from fsci.coupling import traction as tk
 from fsci.coupling.points import BoundaryOf, CouplingPieces, build_pieces
+from fsci.cut.state import END_BODY
 from fsci.cut.transfer import transfer_indices
 from fsci.errors import InputError
 from fsci.expressions import Expression
@@ -411,7 +412,7 @@ class CouplingTerm:
         prmo = np.zeros((K, 2))
         prmm = np.zeros((K, 2))
         W = np.zeros((K, 2, 2))
-        Xe = np.zeros((K, 2, 2))
+        Xe = np.zeros((K, 8, 2))  # extension edge; the other bodies' edges crossed at the ends, the extension point
         We = np.zeros((K, 2, 2))
         Vo = np.zeros((K, 4, 2))  # previous fluid velocity at the cell nodes (bulk shape derivative)
         Vb = np.zeros((K, 4, 2))  # frozen stabilisation velocity there (residual-based scheme)
@@ -422,6 +423,8 @@ class CouplingTerm:
         fp[:, tk.F_C1] = pc.c1
         ip[:, tk.I_D0] = pc.d0
         ip[:, tk.I_D1] = pc.d1
+        ip[:, tk.I_DE] = pc.ext_d
+        fp[:, tk.F_CE] = pc.ext_c
         has_opp = pc.opp_body >= 0
         has_ext = pc.ext_edge >= 0
         flags = np.where(has_opp, tk.HAS_OPP, 0) | np.where(pc.fs, tk.ON_FS, 0) | np.where(has_ext, tk.HAS_EXT, 0)
@@ -464,7 +467,7 @@ class CouplingTerm:
             me = m[has_ext[m]]
             if len(me):
                 ee = self._edges[b][pc.ext_edge[me]]
-                Xe[me] = s.X[ee]
+                Xe[me, :2] = s.X[ee]
                 zidx[me, tk.OFF_EDGE:tk.OFF_EDGE + 4] = (base[b] + 2 * ee[:, :, None] + two).reshape(len(me), 4)
                 conn[me, 16:18] = s.gnode[ee]
                 if transient and body.interface_velocity is None:
@@ -473,18 +476,26 @@ class CouplingTerm:
                         We[me] = c_new * s.Un[ee] + (1.0 - ctx.theta) / ctx.theta * s.Vn[ee]
                     else:
                         We[me] = -s.Vn[ee]
-        # opposite bodies
+        # opposite bodies; for a piece without one that ends at an opposite node's projection, the
+        # segment of that node (its end's geometry only: the segment's two nodes)
+        geo_body = np.where(has_opp, pc.opp_body, pc.end_body)
+        geo_edge = np.where(has_opp, pc.opp_edge, pc.end_edge)
         for b, s in enumerate(system.solids):
-            m = np.nonzero(pc.opp_body == b)[0]
+            m = np.nonzero(geo_body == b)[0]
             if len(m) == 0:
                 continue
-            cells = s.mesh.cells[self._cell[b][pc.opp_edge[m]]]
-            ip[m, tk.I_EM] = self._local[b][pc.opp_edge[m]]
+            cells = s.mesh.cells[self._cell[b][geo_edge[m]]]
+            em = self._local[b][geo_edge[m]]
+            ip[m, tk.I_EM] = em
             ip[m, tk.I_LAWM] = s.law
             prmm[m] = s.prm
             Xm[m] = s.X[cells]
             zidx[m, tk.OFF_OPP:tk.OFF_OPP + 8] = (base[b] + 2 * cells[:, :, None] + two).reshape(len(m), 8)
-            conn[m, 4:8] = s.gnode[cells]
+            keep = np.zeros(cells.shape, dtype=bool)
+            np.put_along_axis(keep, np.column_stack([em, (em + 1) % 4]), True, axis=1)
+            keep |= has_opp[m, None]
+            conn[m, 4:8] = np.where(keep, s.gnode[cells], -1)
+        self._gather_crossed_edges(system, pc, base, zidx, conn, Xe)
         mo = np.nonzero(has_opp)[0]
         if len(mo):
             phi_o = np.array([self.phi[b][e] for b, e in zip(pc.body[mo], pc.edge[mo])])
@@ -536,6 +547,33 @@ class CouplingTerm:
         if not moving:  # evaluated once: constant slip lengths only
             out.update(self._position_data(system, ctx, level, pc))
         return out
+
+    @staticmethod
+    def _gather_crossed_edges(system, pc: CouplingPieces, base: np.ndarray, zidx: np.ndarray, conn: np.ndarray,
+                              Xe: np.ndarray) -> None:
+        """Slots of the other bodies' edges that the pieces' ends and extension points of kind
+        ``END_BODY`` cross (the coordinate is the edge's index among all bodies' boundary edges,
+        in the cut's order): reference coordinates into ``Xe[:, 2:8]``, local unknowns from
+        ``OFF_END``, global nodes into slots 18-23."""
+        ends = [np.nonzero(d == END_BODY)[0] for d in (pc.d0, pc.d1, pc.ext_d)]
+        if system.cut is None or not any(len(e) for e in ends):
+            return
+        edges = [s.mesh.boundary.edges for s in system.solids]
+        off = np.concatenate([[0], np.cumsum([len(e) for e in edges])]).astype(np.int64)
+        two = np.arange(2)
+        for end, (sel, c) in enumerate(zip(ends, (pc.c0, pc.c1, pc.ext_c))):
+            if not len(sel):
+                continue
+            g = np.rint(c[sel]).astype(np.int64)
+            body = np.searchsorted(off, g, side="right") - 1
+            for b in np.unique(body):
+                s = system.solids[b]
+                m = sel[body == b]
+                nodes = edges[b][g[body == b] - off[b]]
+                Xe[m, 2 + 2 * end:4 + 2 * end] = s.X[nodes]
+                o = tk.OFF_END + 4 * end
+                zidx[m, o:o + 4] = (base[b] + 2 * nodes[:, :, None] + two).reshape(len(m), 4)
+                conn[m, 18 + 2 * end:20 + 2 * end] = s.gnode[nodes]
 
     def _gauss_points(self, x: np.ndarray, s0: np.ndarray, s1: np.ndarray) -> np.ndarray:
         s = s0[:, None] + (s1 - s0)[:, None] * self.gp[None, :]

@@ -30,10 +30,13 @@ stress and the adjoint terms are θ-weighted like the bulk viscous and solid int
 residual evaluated with ``(w_p, w_t, w_c) = (0, 1, 0)`` at the converged state of the previous step
 (see :mod:`fsci.coupling.term`). The case is decided on the unweighted values of the level.
 
-Local unknowns of a piece (``N_LOCAL`` = 44, absent slots are skipped):
+Local unknowns of a piece (``N_LOCAL`` = 56, absent slots are skipped):
 ``[own element u (8) | opposite element u (8) | fluid cell (v_x, v_y, p) × 4 | extension cell × 4 |
-extension edge u (4)]``. The Jacobian is the exact derivative by complex step over the live slots,
-including the motion of the split points (Remark 9), g_n, x̌, n, σ̌, κ(g_n) and the extended
+extension edge u (4) | other body's edge crossed at end 0 u (4) | at end 1 (4) | at the
+extension point (4)]``. The Jacobian is the exact derivative by complex step over the live slots,
+including the motion of the split points (Remark 9) and of the ends where the edge crosses
+another body's boundary (the end of the wetted part in contact, and the extension point there),
+g_n, x̌, n, σ̌, κ(g_n) and the extended
 values' dependence on the transition cell and edge; the piece's parameter range on a fluid-cell
 split and the transition point's parameter are frozen with the cut (docs/architecture.md).
 """
@@ -51,21 +54,23 @@ from fsci.physics.materials import cauchy_stress
 CS_STEP = 1e-30  # complex-step size
 CORNERS = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
 
-N_LOCAL = 44  # local unknowns of a piece
-N_SLOTS = 18  # node slots: own element 4, opposite element 4, fluid cell 4, extension cell 4, extension edge 2
-OFF_OPP, OFF_CELL, OFF_EXT, OFF_EDGE = 8, 16, 28, 40
+N_LOCAL = 56  # local unknowns of a piece
+# node slots: own element 4, opposite element 4, fluid cell 4, extension cell 4, extension edge 2,
+# the other body's edge crossed at end 0 2, at end 1 2, at the extension point 2
+N_SLOTS = 24
+OFF_OPP, OFF_CELL, OFF_EXT, OFF_EDGE, OFF_END = 8, 16, 28, 40, 44
 
 # flags (bit field per piece)
 HAS_OPP, ON_FS, HAS_EXT, SLIP_LAW, HAS_FLUID, HELD = 1, 2, 4, 8, 16, 32
 # HELD: a dry piece whose contact swung back and forth in this step's iterations; its points with
 # g_n <= 0 stay in contact for the rest of the step (CouplingTerm.track_case_swings, decision 38)
 # integer data per piece
-I_EO, I_LAWO, I_EM, I_LAWM, I_D0, I_D1, I_FLAGS = range(7)
-N_INT = 7
+I_EO, I_LAWO, I_EM, I_LAWM, I_D0, I_D1, I_FLAGS, I_DE = range(8)
+N_INT = 8
 # float data per piece
 (F_WOWN, F_PEN, F_S0, F_S1, F_CU, F_GAM, F_AT, F_X0C, F_Y0C, F_HX, F_HY, F_SE, F_CUE, F_GAME, F_X0E, F_Y0E,
- F_HXE, F_HYE, F_KAPPA0, F_SLIPH, F_C0, F_C1) = range(22)
-N_FLT = 22
+ F_HXE, F_HYE, F_KAPPA0, F_SLIPH, F_C0, F_C1, F_CE) = range(23)
+N_FLT = 23
 # columns of the per-Gauss-point output
 (O_X, O_Y, O_CASE, O_GAP, O_F, O_CC, O_KAPPA, O_W, O_NX, O_NY, O_TX, O_TY, O_TN_FSI, O_TN_CON) = range(14)
 N_OUT = 14
@@ -92,10 +97,11 @@ def _stress_nn(Xe, ue, law, prm, r, s, n0, n1):
 
 
 @njit(cache=True, inline="always")
-def _piece_end(d, s_fixed, c, A0, A1, t0, t1, L2, P0, P1, Q0, Q1):
+def _piece_end(d, s_fixed, c, A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1):
     """End of a piece on the edge A + s t: fixed (d < 0), the orthogonal projection of opposite
-    node d = 0/1 (Remark 9), or where the edge crosses the grid line x = c (d = 2) / y = c (d = 3)
-    — the ends move with the unknowns, so the Jacobian includes the motion of the splits."""
+    node d = 0/1 (Remark 9), where the edge crosses the grid line x = c (d = 2) / y = c (d = 3), or
+    where it crosses another body's edge B + r w (d = 4, fsci.cut.state.END_BODY) — the ends move
+    with the unknowns, so the Jacobian includes the motion of the splits."""
     if d < 0:
         return s_fixed + 0.0 * A0
     if d == 0:
@@ -104,7 +110,22 @@ def _piece_end(d, s_fixed, c, A0, A1, t0, t1, L2, P0, P1, Q0, Q1):
         return ((Q0 - A0) * t0 + (Q1 - A1) * t1) / L2
     if d == 2:
         return (c - A0) / t0
-    return (c - A1) / t1
+    if d == 3:
+        return (c - A1) / t1
+    return ((B0 - A0) * w1 - (B1 - A1) * w0) / (t0 * w1 - t1 * w0)
+
+
+@njit(cache=True, inline="always")
+def _crossed_edge(z, Xe, end):
+    """Start point and direction ``(B0, B1, w0, w1)`` of the other body's edge that piece end
+    ``end`` (0 or 1; 2: the extension point) crosses: reference coordinates in
+    ``Xe[2 + 2 end : 4 + 2 end]``, displacements in the local unknowns from ``OFF_END + 4 end``
+    (zero where there is none)."""
+    o = OFF_END + 4 * end
+    r = 2 + 2 * end
+    B0 = Xe[r, 0] + z[o]
+    B1 = Xe[r, 1] + z[o + 1]
+    return B0, B1, Xe[r + 1, 0] + z[o + 2] - B0, Xe[r + 1, 1] + z[o + 3] - B1
 
 
 @njit(cache=True)
@@ -144,6 +165,10 @@ def piece_residual(z, r, out, ip, fp, Xo, prmo, Xm, prmm, W, vq, kap, Xe, We, vq
                    w_p, w_t, w_c, gp, gw):
     """Residual ``r[N_LOCAL]`` of one piece at local unknowns ``z`` (real or complex).
 
+    ``Xe`` holds the reference coordinates of the extension edge (rows 0-1) and of the other
+    bodies' edges the piece's ends and its extension point cross (rows 2-3, 4-5 and 6-7,
+    :func:`_crossed_edge`).
+
     ``out[g]`` receives the real parts of the point data (columns ``O_*``). Returns True if the
     piece contributes anything (a dry piece out of contact does not)."""
     for k in range(N_LOCAL):
@@ -177,8 +202,10 @@ def piece_residual(z, r, out, ip, fp, Xo, prmo, Xm, prmm, W, vq, kap, Xe, We, vq
     P1 = Xm[ja, 1] + um[ja, 1]
     Q0 = Xm[jb, 0] + um[jb, 0]
     Q1 = Xm[jb, 1] + um[jb, 1]
-    sa = _piece_end(ip[I_D0], fp[F_S0], fp[F_C0], A0, A1, t0, t1, L2, P0, P1, Q0, Q1)
-    sb = _piece_end(ip[I_D1], fp[F_S1], fp[F_C1], A0, A1, t0, t1, L2, P0, P1, Q0, Q1)
+    B0, B1, w0, w1 = _crossed_edge(z, Xe, 0)
+    sa = _piece_end(ip[I_D0], fp[F_S0], fp[F_C0], A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1)
+    B0, B1, w0, w1 = _crossed_edge(z, Xe, 1)
+    sb = _piece_end(ip[I_D1], fp[F_S1], fp[F_C1], A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1)
     e0 = Q0 - P0
     e1 = Q1 - P1
     det = -e0 * n1 + n0 * e1
@@ -193,11 +220,13 @@ def piece_residual(z, r, out, ip, fp, Xo, prmo, Xm, prmm, W, vq, kap, Xe, We, vq
     Fe = 0.0 * z[0]
     Fe_applied = 0.0 * z[0]
     if has_ext:
-        se = fp[F_SE]
         ea0 = Xe[0, 0] + z[OFF_EDGE]
         ea1 = Xe[0, 1] + z[OFF_EDGE + 1]
         et0 = Xe[1, 0] + z[OFF_EDGE + 2] - ea0
         et1 = Xe[1, 1] + z[OFF_EDGE + 3] - ea1
+        # the transition point: fixed, or where the extension edge crosses another body's edge
+        B0, B1, w0, w1 = _crossed_edge(z, Xe, 2)
+        se = _piece_end(ip[I_DE], fp[F_SE], fp[F_CE], ea0, ea1, et0, et1, 1.0, 0.0, 0.0, 0.0, 0.0, B0, B1, w0, w1)
         eL = np.sqrt(et0 * et0 + et1 * et1)
         m0 = et1 / eL
         m1 = -et0 / eL
@@ -354,7 +383,7 @@ def piece_residual(z, r, out, ip, fp, Xo, prmo, Xm, prmm, W, vq, kap, Xe, We, vq
 
 
 @njit(cache=True)
-def add_bulk_shape_derivative(K, z, ip, fp, Xo, Vo, Vb, bq, fprm, gp, gw):
+def add_bulk_shape_derivative(K, z, ip, fp, Xo, Xm, Xe, Vo, Vb, bq, fprm, gp, gw):
     """Add to ``K`` (full local Jacobian) the derivative of the fluid bulk integrals (22) over the
     piece's cell with respect to the motion of the piece (Reynolds transport: moving Γ^FS by δu
     into the fluid removes fluid, ``δ ∫_{Ω^F} r_i = −∫_{Γ^FS} r_i (δu · n) ds``), where ``r_i`` is
@@ -376,8 +405,16 @@ def add_bulk_shape_derivative(K, z, ip, fp, Xo, Vo, Vb, bq, fprm, gp, gw):
     L = np.sqrt(L2)
     n0 = t1 / L
     n1 = -t0 / L
-    sa = _piece_end(ip[I_D0], fp[F_S0], fp[F_C0], A0, A1, t0, t1, L2, 0.0, 0.0, 0.0, 0.0)
-    sb = _piece_end(ip[I_D1], fp[F_S1], fp[F_C1], A0, A1, t0, t1, L2, 0.0, 0.0, 0.0, 0.0)
+    ja = ip[I_EM]
+    jb = (ja + 1) % 4
+    P0 = Xm[ja, 0] + z[OFF_OPP + 2 * ja]
+    P1 = Xm[ja, 1] + z[OFF_OPP + 2 * ja + 1]
+    Q0 = Xm[jb, 0] + z[OFF_OPP + 2 * jb]
+    Q1 = Xm[jb, 1] + z[OFF_OPP + 2 * jb + 1]
+    B0, B1, w0, w1 = _crossed_edge(z, Xe, 0)
+    sa = _piece_end(ip[I_D0], fp[F_S0], fp[F_C0], A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1)
+    B0, B1, w0, w1 = _crossed_edge(z, Xe, 1)
+    sb = _piece_end(ip[I_D1], fp[F_S1], fp[F_C1], A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1)
     hx = fp[F_HX]
     hy = fp[F_HY]
     N = np.empty(4)
@@ -409,8 +446,8 @@ def add_bulk_shape_derivative(K, z, ip, fp, Xo, Vo, Vb, bq, fprm, gp, gw):
             K[OFF_CELL + r, 2 * ib + 1] += f * s * n1
 
 
-_SLOT_OFFSET = np.array([0, 2, 4, 6, 8, 10, 12, 14, 16, 19, 22, 25, 28, 31, 34, 37, 40, 42])
-_SLOT_NDOF = np.array([2, 2, 2, 2, 2, 2, 2, 2, 3, 3, 3, 3, 3, 3, 3, 3, 2, 2])
+_SLOT_OFFSET = np.array([0, 2, 4, 6, 8, 10, 12, 14, 16, 19, 22, 25, 28, 31, 34, 37, 40, 42, 44, 46, 48, 50, 52, 54])
+_SLOT_NDOF = np.array([2, 2, 2, 2, 2, 2, 2, 2, 3, 3, 3, 3, 3, 3, 3, 3, 2, 2, 2, 2, 2, 2, 2, 2])
 
 
 def assemble_pieces(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_all, vq_all, kap_all, Xe_all,
@@ -488,7 +525,7 @@ def _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_a
                 for l in range(N_LOCAL):
                     Kf[l, j] = rc[l].imag / CS_STEP
             if shape:
-                add_bulk_shape_derivative(Kf, z, ip_all[k], fp_all[k], Xo_all[k], Vo_all[k], Vb_all[k], bq_all[k], fprm, gp,
+                add_bulk_shape_derivative(Kf, z, ip_all[k], fp_all[k], Xo_all[k], Xm_all[k], Xe_all[k], Vo_all[k], Vb_all[k], bq_all[k], fprm, gp,
                                           gw)
 
 

@@ -46,6 +46,9 @@ FLUID, CUT, SOLID = 0, 1, 2
 # kinds of interface-piece ends: fixed parameter, or on a grid line x = const / y = const (the end
 # then moves along the line with the edge, see fsci.coupling.traction)
 END_FIXED, END_X, END_Y = -1, 2, 3
+# an end where the edge crosses another body's boundary edge (its index among all bodies' boundary
+# edges in the end's line coordinate): the end moves with both edges (fsci.coupling.traction)
+END_BODY = 4
 AREA_TOL = 1e-15  # relative to the cell area: below this a fluid or solid part is treated as empty
 
 
@@ -60,7 +63,8 @@ class Segments:
     cell: np.ndarray  # background cell evaluated for fluid quantities
     part: np.ndarray  # fluid part of that cell on the wetted side (cell + n_cells × k, CutState.part_conn)
     fs: np.ndarray  # True: bounds the physical fluid (Γ^FS); False: Γ^SC
-    kind0: np.ndarray  # kind of each end (END_FIXED, END_X, END_Y) and its grid-line coordinate
+    kind0: np.ndarray  # kind of each end (END_FIXED, END_X, END_Y, END_BODY) and its grid-line
+    # coordinate, or for END_BODY the index of the other body's edge among all bodies' boundary edges
     line0: np.ndarray
     kind1: np.ndarray
     line1: np.ndarray
@@ -171,8 +175,8 @@ def _grid_crossings(a, b, xs, ys, out_edge, out_s, out_kind, out_line, count):
 def _segment_events(A0, A1, B0, B1, tol=1e-12):
     """Parameters on segments A where they meet segments B (pairwise arrays).
 
-    Returns (pair index, s) for proper crossings, touching points and the end points of
-    collinear overlaps."""
+    Returns (pair index, s, proper) for proper crossings (``proper`` True: the lines are not
+    parallel), touching points and the end points of collinear overlaps."""
     d = A1 - A0
     e = B1 - B0
     w = B0 - A0
@@ -187,6 +191,7 @@ def _segment_events(A0, A1, B0, B1, tol=1e-12):
     ok = (s >= -tol) & (s <= 1 + tol) & (t >= -tol) & (t <= 1 + tol)
     idx.append(k[ok])
     ss.append(np.clip(s[ok], 0.0, 1.0))
+    n_proper = int(ok.sum())
     k = np.nonzero(par)[0]
     if len(k):
         dist = np.abs(w[k, 0] * d[k, 1] - w[k, 1] * d[k, 0]) / ld[k]
@@ -196,7 +201,10 @@ def _segment_events(A0, A1, B0, B1, tol=1e-12):
             inside = (sp >= -tol) & (sp <= 1 + tol)
             idx.append(col[inside])
             ss.append(np.clip(sp[inside], 0.0, 1.0))
-    return np.concatenate(idx), np.concatenate(ss)
+    idx_all = np.concatenate(idx)
+    proper = np.zeros(len(idx_all), dtype=bool)
+    proper[:n_proper] = True
+    return idx_all, np.concatenate(ss), proper
 
 
 class CutState:
@@ -429,6 +437,8 @@ class CutState:
         cross_body = np.zeros(0, dtype=np.int64)
         cross_edge = np.zeros(0, dtype=np.int64)
         cross_s = np.zeros(0)
+        cross_kind = np.zeros(0, dtype=np.int64)
+        cross_other = np.zeros(0)
         if nb > 1 and len(a_if):
             p0 = np.vstack([o.x[o.all_edges[:, 0]] for o in self.outlines])
             p1 = np.vstack([o.x[o.all_edges[:, 1]] for o in self.outlines])
@@ -437,9 +447,12 @@ class CutState:
             other = body_if[i_mine] != body_all[i_other]
             i_mine, i_other = i_mine[other], i_other[other]
             if len(i_mine):
-                k, cross_s = _segment_events(a_if[i_mine], c_if[i_mine], p0[i_other], p1[i_other])
+                k, cross_s, proper = _segment_events(a_if[i_mine], c_if[i_mine], p0[i_other], p1[i_other])
                 cross_edge = i_mine[k]
                 cross_body = body_if[cross_edge]
+                # a proper crossing moves with both edges; the ends of collinear overlaps stay fixed
+                cross_kind = np.where(proper, END_BODY, END_FIXED)
+                cross_other = i_other[k].astype(float)
         # vertices of the fluid region lying on an edge: where the wetted part ends even if the other
         # body only nearly touches (gaps of round-off size, closed films)
         on_body = np.zeros(0, dtype=np.int64)
@@ -477,18 +490,29 @@ class CutState:
             m = cross_body == b
             ev_edge.append(cross_edge[m] - off[b])
             ev_s.append(cross_s[m])
+            n_cross = int(m.sum())
+            Kc, Lc = cross_kind[m], cross_other[m]
             m = on_body == b
             ev_edge.append(on_edge_i[m] - off[b])
             ev_s.append(on_s[m])
             E = np.concatenate(ev_edge)
             S = np.concatenate(ev_s)
-            n_other = len(E) - 2 * nE - n_grid
-            Kd = np.concatenate([np.full(2 * nE, END_FIXED), ok_[:n_grid], np.full(n_other, END_FIXED)])
-            Ln = np.concatenate([np.zeros(2 * nE), ol_[:n_grid], np.zeros(n_other)])
+            n_on = len(E) - 2 * nE - n_grid - n_cross
+            Kd = np.concatenate([np.full(2 * nE, END_FIXED), ok_[:n_grid], Kc, np.full(n_on, END_FIXED)])
+            Ln = np.concatenate([np.zeros(2 * nE), ol_[:n_grid], Lc, np.zeros(n_on)])
             order = np.lexsort((S, E))
             E, S, Kd, Ln = E[order], S[order], Kd[order], Ln[order]
             same = (E[1:] == E[:-1])
             keep = same & ((S[1:] - S[:-1]) > 1e-13)
+            # events that coincide (a crossing and the fluid region's vertex there): all pieces
+            # meeting at the point end at the crossing
+            group = np.concatenate([[0], np.cumsum(~(same & ~keep))])
+            body_end = np.nonzero(Kd == END_BODY)[0]
+            first = np.full(group[-1] + 1, -1)
+            first[group[body_end[::-1]]] = body_end[::-1]
+            take = first[group]
+            m = take >= 0
+            Kd[m], Ln[m] = END_BODY, Ln[take[m]]
             i0 = np.nonzero(keep)[0]
             rows.append((np.full(len(i0), b), E[i0], S[i0], S[i0 + 1], Kd[i0], Ln[i0], Kd[i0 + 1], Ln[i0 + 1]))
         if not rows:
