@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fsci.cut.state import END_BODY
+from fsci.cut.state import MOVING_ENDS
 from fsci.geometry.search import Surface, find_pieces
 
 
@@ -39,9 +39,9 @@ class CouplingPieces:
     s0: np.ndarray  # parameter range on the edge (0 at its first node)
     s1: np.ndarray
     d0: np.ndarray  # end descriptors: -1 fixed, 0/1 projection of the opposite segment's node,
-    d1: np.ndarray  # 2/3 on the grid line x = c / y = c (fsci.cut.state.END_X, END_Y), 4 where the
-    # edge crosses another body's boundary edge c (fsci.cut.state.END_BODY)
-    c0: np.ndarray  # grid-line coordinate of an end of kind 2/3, the crossed edge of kind 4
+    d1: np.ndarray  # 2/3 on the grid line x = c / y = c (fsci.cut.state.END_X, END_Y), 4-6 where the
+    # edge crosses another body's boundary edge c or its closed film's line (fsci.cut.state.MOVING_ENDS)
+    c0: np.ndarray  # grid-line coordinate of an end of kind 2/3, that edge of kind 4-6
     c1: np.ndarray
     cell: np.ndarray  # fluid part of the piece: cell + n_cells × fluid piece (CutState.part_conn; -1: none)
     fs: np.ndarray  # bounds the physical fluid (Γ^FS)
@@ -52,7 +52,7 @@ class CouplingPieces:
     ext_edge: np.ndarray  # extension point: edge of the same body (-1: none)
     ext_s: np.ndarray  # and its parameter on that edge
     ext_cell: np.ndarray  # fluid part on the fluid side of the extension point
-    ext_d: np.ndarray  # its descriptor: 4 where it is the crossing with another body's edge ext_c, else -1
+    ext_d: np.ndarray  # its descriptor: 4-6 where it lies on another body's edge ext_c or its film line, else -1
     ext_c: np.ndarray
 
     def __len__(self) -> int:
@@ -220,7 +220,7 @@ def build_pieces(boundaries: list[BoundaryOf], cut, radius: float, self_contact:
         scale = 1.0 + float(np.max(np.abs(bd.x))) if len(bd.x) else 1.0
         ext = _extension(bd.x, bd.edges, rows[:, [0, 1, 2, 3, 4, 7, 8, 5, 6]], scale) if cut is not None and extension \
             else np.full((len(rows), 5), -1.0)
-        ext[:, 3] = np.where(ext[:, 3] == END_BODY, END_BODY, -1)
+        ext[:, 3] = np.where(np.isin(ext[:, 3], MOVING_ENDS), ext[:, 3], -1)
         fs = rows[:, 8] > 0
         has_opp = rows[:, 9] >= 0
         keep = fs | has_opp | (ext[:, 0] >= 0)

@@ -33,7 +33,7 @@ from numba import njit
 from fsci.assembly import Assembly, ResidualAssembly
 from fsci.coupling import traction as tk
 from fsci.coupling.points import BoundaryOf, CouplingPieces, build_pieces
-from fsci.cut.state import END_BODY
+from fsci.cut.state import MOVING_ENDS
 from fsci.cut.transfer import transfer_indices
 from fsci.errors import InputError
 from fsci.expressions import Expression
@@ -425,6 +425,8 @@ class CouplingTerm:
         ip[:, tk.I_D1] = pc.d1
         ip[:, tk.I_DE] = pc.ext_d
         fp[:, tk.F_CE] = pc.ext_c
+        if system.cut is not None:  # half-thickness of closed films (fsci.cut.state.END_FILM_OUT)
+            fp[:, tk.F_FILM] = system.cut.film_closure * system._smallest_cell_side()
         has_opp = pc.opp_body >= 0
         has_ext = pc.ext_edge >= 0
         flags = np.where(has_opp, tk.HAS_OPP, 0) | np.where(pc.fs, tk.ON_FS, 0) | np.where(has_ext, tk.HAS_EXT, 0)
@@ -551,11 +553,11 @@ class CouplingTerm:
     @staticmethod
     def _gather_crossed_edges(system, pc: CouplingPieces, base: np.ndarray, zidx: np.ndarray, conn: np.ndarray,
                               Xe: np.ndarray) -> None:
-        """Slots of the other bodies' edges that the pieces' ends and extension points of kind
-        ``END_BODY`` cross (the coordinate is the edge's index among all bodies' boundary edges,
+        """Slots of the other bodies' edges that the pieces' ends and extension points of the
+        kinds ``MOVING_ENDS`` cross (or whose closed film's line they meet) (the coordinate is the edge's index among all bodies' boundary edges,
         in the cut's order): reference coordinates into ``Xe[:, 2:8]``, local unknowns from
         ``OFF_END``, global nodes into slots 18-23."""
-        ends = [np.nonzero(d == END_BODY)[0] for d in (pc.d0, pc.d1, pc.ext_d)]
+        ends = [np.nonzero(np.isin(d, MOVING_ENDS))[0] for d in (pc.d0, pc.d1, pc.ext_d)]
         if system.cut is None or not any(len(e) for e in ends):
             return
         edges = [s.mesh.boundary.edges for s in system.solids]

@@ -69,8 +69,8 @@ I_EO, I_LAWO, I_EM, I_LAWM, I_D0, I_D1, I_FLAGS, I_DE = range(8)
 N_INT = 8
 # float data per piece
 (F_WOWN, F_PEN, F_S0, F_S1, F_CU, F_GAM, F_AT, F_X0C, F_Y0C, F_HX, F_HY, F_SE, F_CUE, F_GAME, F_X0E, F_Y0E,
- F_HXE, F_HYE, F_KAPPA0, F_SLIPH, F_C0, F_C1, F_CE) = range(23)
-N_FLT = 23
+ F_HXE, F_HYE, F_KAPPA0, F_SLIPH, F_C0, F_C1, F_CE, F_FILM) = range(24)
+N_FLT = 24
 # columns of the per-Gauss-point output
 (O_X, O_Y, O_CASE, O_GAP, O_F, O_CC, O_KAPPA, O_W, O_NX, O_NY, O_TX, O_TY, O_TN_FSI, O_TN_CON) = range(14)
 N_OUT = 14
@@ -97,11 +97,13 @@ def _stress_nn(Xe, ue, law, prm, r, s, n0, n1):
 
 
 @njit(cache=True, inline="always")
-def _piece_end(d, s_fixed, c, A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1):
+def _piece_end(d, s_fixed, c, A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1, film):
     """End of a piece on the edge A + s t: fixed (d < 0), the orthogonal projection of opposite
-    node d = 0/1 (Remark 9), where the edge crosses the grid line x = c (d = 2) / y = c (d = 3), or
-    where it crosses another body's edge B + r w (d = 4, fsci.cut.state.END_BODY) — the ends move
-    with the unknowns, so the Jacobian includes the motion of the splits."""
+    node d = 0/1 (Remark 9), where the edge crosses the grid line x = c (d = 2) / y = c (d = 3),
+    where it crosses another body's edge B + r w (d = 4, fsci.cut.state.END_BODY), or that edge's
+    line moved by ``film`` along its outward normal (d = 5) or against it (d = 6): the end of a
+    closed film — the ends move with the unknowns, so the Jacobian includes the motion of the
+    splits."""
     if d < 0:
         return s_fixed + 0.0 * A0
     if d == 0:
@@ -112,6 +114,10 @@ def _piece_end(d, s_fixed, c, A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1
         return (c - A0) / t0
     if d == 3:
         return (c - A1) / t1
+    if d >= 5:
+        off = (film if d == 5 else -film) / np.sqrt(w0 * w0 + w1 * w1)
+        B0 = B0 + off * w1
+        B1 = B1 - off * w0
     return ((B0 - A0) * w1 - (B1 - A1) * w0) / (t0 * w1 - t1 * w0)
 
 
@@ -203,9 +209,9 @@ def piece_residual(z, r, out, ip, fp, Xo, prmo, Xm, prmm, W, vq, kap, Xe, We, vq
     Q0 = Xm[jb, 0] + um[jb, 0]
     Q1 = Xm[jb, 1] + um[jb, 1]
     B0, B1, w0, w1 = _crossed_edge(z, Xe, 0)
-    sa = _piece_end(ip[I_D0], fp[F_S0], fp[F_C0], A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1)
+    sa = _piece_end(ip[I_D0], fp[F_S0], fp[F_C0], A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1, fp[F_FILM])
     B0, B1, w0, w1 = _crossed_edge(z, Xe, 1)
-    sb = _piece_end(ip[I_D1], fp[F_S1], fp[F_C1], A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1)
+    sb = _piece_end(ip[I_D1], fp[F_S1], fp[F_C1], A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1, fp[F_FILM])
     e0 = Q0 - P0
     e1 = Q1 - P1
     det = -e0 * n1 + n0 * e1
@@ -226,7 +232,7 @@ def piece_residual(z, r, out, ip, fp, Xo, prmo, Xm, prmm, W, vq, kap, Xe, We, vq
         et1 = Xe[1, 1] + z[OFF_EDGE + 3] - ea1
         # the transition point: fixed, or where the extension edge crosses another body's edge
         B0, B1, w0, w1 = _crossed_edge(z, Xe, 2)
-        se = _piece_end(ip[I_DE], fp[F_SE], fp[F_CE], ea0, ea1, et0, et1, 1.0, 0.0, 0.0, 0.0, 0.0, B0, B1, w0, w1)
+        se = _piece_end(ip[I_DE], fp[F_SE], fp[F_CE], ea0, ea1, et0, et1, 1.0, 0.0, 0.0, 0.0, 0.0, B0, B1, w0, w1, fp[F_FILM])
         eL = np.sqrt(et0 * et0 + et1 * et1)
         m0 = et1 / eL
         m1 = -et0 / eL
@@ -412,9 +418,9 @@ def add_bulk_shape_derivative(K, z, ip, fp, Xo, Xm, Xe, Vo, Vb, bq, fprm, gp, gw
     Q0 = Xm[jb, 0] + z[OFF_OPP + 2 * jb]
     Q1 = Xm[jb, 1] + z[OFF_OPP + 2 * jb + 1]
     B0, B1, w0, w1 = _crossed_edge(z, Xe, 0)
-    sa = _piece_end(ip[I_D0], fp[F_S0], fp[F_C0], A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1)
+    sa = _piece_end(ip[I_D0], fp[F_S0], fp[F_C0], A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1, fp[F_FILM])
     B0, B1, w0, w1 = _crossed_edge(z, Xe, 1)
-    sb = _piece_end(ip[I_D1], fp[F_S1], fp[F_C1], A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1)
+    sb = _piece_end(ip[I_D1], fp[F_S1], fp[F_C1], A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1, fp[F_FILM])
     hx = fp[F_HX]
     hy = fp[F_HY]
     N = np.empty(4)

@@ -49,6 +49,11 @@ END_FIXED, END_X, END_Y = -1, 2, 3
 # an end where the edge crosses another body's boundary edge (its index among all bodies' boundary
 # edges in the end's line coordinate): the end moves with both edges (fsci.coupling.traction)
 END_BODY = 4
+# an end where the edge meets the boundary of a closed film: the line at distance film_closure ×
+# (smallest cell) from another body's edge, on the side of its outward normal (END_FILM_OUT) or
+# the other side (END_FILM_IN); the edge in the line coordinate as for END_BODY
+END_FILM_OUT, END_FILM_IN = 5, 6
+MOVING_ENDS = (END_BODY, END_FILM_OUT, END_FILM_IN)  # ends on another body's (offset) edge
 AREA_TOL = 1e-15  # relative to the cell area: below this a fluid or solid part is treated as empty
 
 
@@ -63,8 +68,8 @@ class Segments:
     cell: np.ndarray  # background cell evaluated for fluid quantities
     part: np.ndarray  # fluid part of that cell on the wetted side (cell + n_cells × k, CutState.part_conn)
     fs: np.ndarray  # True: bounds the physical fluid (Γ^FS); False: Γ^SC
-    kind0: np.ndarray  # kind of each end (END_FIXED, END_X, END_Y, END_BODY) and its grid-line
-    # coordinate, or for END_BODY the index of the other body's edge among all bodies' boundary edges
+    kind0: np.ndarray  # kind of each end (END_FIXED, END_X, END_Y, MOVING_ENDS) and its grid-line
+    # coordinate, or for MOVING_ENDS the index of the other body's edge among all bodies' boundary edges
     line0: np.ndarray
     kind1: np.ndarray
     line1: np.ndarray
@@ -458,6 +463,8 @@ class CutState:
         on_body = np.zeros(0, dtype=np.int64)
         on_edge_i = np.zeros(0, dtype=np.int64)
         on_s = np.zeros(0)
+        on_kind = np.zeros(0, dtype=np.int64)
+        on_other = np.zeros(0)
         if not self.fluid.is_empty and len(a_if):
             fluid_pts = shapely.get_coordinates(self.fluid)
             i_pt, i_mine = shapely.STRtree(lines_if).query(shapely.points(fluid_pts), predicate="dwithin",
@@ -468,6 +475,7 @@ class CutState:
                 ok = (sp > 0.0) & (sp < 1.0)
                 on_edge_i, on_s = i_mine[ok], sp[ok]
                 on_body = body_if[on_edge_i]
+                on_kind, on_other = self._film_ends(fluid_pts[i_pt[ok]], on_body, hmin)
         rows = []
         for b, o in enumerate(self.outlines):
             a = a_if[off[b]:off[b + 1]]
@@ -490,29 +498,27 @@ class CutState:
             m = cross_body == b
             ev_edge.append(cross_edge[m] - off[b])
             ev_s.append(cross_s[m])
-            n_cross = int(m.sum())
             Kc, Lc = cross_kind[m], cross_other[m]
             m = on_body == b
             ev_edge.append(on_edge_i[m] - off[b])
             ev_s.append(on_s[m])
             E = np.concatenate(ev_edge)
             S = np.concatenate(ev_s)
-            n_on = len(E) - 2 * nE - n_grid - n_cross
-            Kd = np.concatenate([np.full(2 * nE, END_FIXED), ok_[:n_grid], Kc, np.full(n_on, END_FIXED)])
-            Ln = np.concatenate([np.zeros(2 * nE), ol_[:n_grid], Lc, np.zeros(n_on)])
+            Kd = np.concatenate([np.full(2 * nE, END_FIXED), ok_[:n_grid], Kc, on_kind[m]])
+            Ln = np.concatenate([np.zeros(2 * nE), ol_[:n_grid], Lc, on_other[m]])
             order = np.lexsort((S, E))
             E, S, Kd, Ln = E[order], S[order], Kd[order], Ln[order]
             same = (E[1:] == E[:-1])
             keep = same & ((S[1:] - S[:-1]) > 1e-13)
             # events that coincide (a crossing and the fluid region's vertex there): all pieces
-            # meeting at the point end at the crossing
+            # meeting at the point end at the crossing (or the closed film's end)
             group = np.concatenate([[0], np.cumsum(~(same & ~keep))])
-            body_end = np.nonzero(Kd == END_BODY)[0]
+            moving = np.nonzero(np.isin(Kd, MOVING_ENDS))[0]
             first = np.full(group[-1] + 1, -1)
-            first[group[body_end[::-1]]] = body_end[::-1]
+            first[group[moving[::-1]]] = moving[::-1]
             take = first[group]
             m = take >= 0
-            Kd[m], Ln[m] = END_BODY, Ln[take[m]]
+            Kd[m], Ln[m] = Kd[take[m]], Ln[take[m]]
             i0 = np.nonzero(keep)[0]
             rows.append((np.full(len(i0), b), E[i0], S[i0], S[i0 + 1], Kd[i0], Ln[i0], Kd[i0 + 1], Ln[i0 + 1]))
         if not rows:
@@ -564,6 +570,37 @@ class CutState:
         part[fs] += g.n_cells * self.local_part(cell[fs], probe[fs])  # the part on the wetted side
         self.segments = Segments(body, edge, s0, s1, cell, part, fs.astype(bool), ends[0].astype(np.int64),
                                  ends[1], ends[2].astype(np.int64), ends[3], inside)
+
+    def _film_ends(self, pts: np.ndarray, body: np.ndarray, hmin: float) -> tuple[np.ndarray, np.ndarray]:
+        """Kinds and other edges of the fluid region's vertices ``pts`` lying on edges of bodies
+        ``body``: where a closed film ends (:meth:`_closed_films`) the vertex lies on the line at
+        distance δ = film_closure × ``hmin`` from an edge of another body, within the edge's
+        extent; there the end moves with both edges (END_FILM_OUT / END_FILM_IN, the index of
+        that edge among all bodies' boundary edges). Elsewhere (a mitre corner of the grown
+        outline, a held dry region) the end stays fixed."""
+        kind = np.full(len(pts), END_FIXED, dtype=np.int64)
+        other = np.zeros(len(pts))
+        if self.film_closure <= 0.0 or len(self.outlines) < 2 or not len(pts):
+            return kind, other
+        delta = self.film_closure * hmin
+        tol = 1e-9 * hmin
+        p0 = np.vstack([o.x[o.all_edges[:, 0]] for o in self.outlines])
+        p1 = np.vstack([o.x[o.all_edges[:, 1]] for o in self.outlines])
+        body_all = np.repeat(np.arange(len(self.outlines)), [len(o.all_edges) for o in self.outlines])
+        tree = shapely.STRtree(shapely.linestrings(np.stack([p0, p1], axis=1)))
+        i_pt, i_e = tree.query(shapely.points(pts), predicate="dwithin", distance=delta + tol)
+        keep = body_all[i_e] != body[i_pt]
+        i_pt, i_e = i_pt[keep], i_e[keep]
+        w = p1[i_e] - p0[i_e]
+        L = np.linalg.norm(w, axis=1)
+        rel = pts[i_pt] - p0[i_e]
+        sd = (w[:, 1] * rel[:, 0] - w[:, 0] * rel[:, 1]) / L  # along the outward normal (w1, -w0)/|w|
+        r = np.einsum("ij,ij->i", rel, w) / L ** 2
+        hit = (np.abs(np.abs(sd) - delta) <= tol) & (r >= 0.0) & (r <= 1.0)
+        i_pt, i_e, sd = i_pt[hit], i_e[hit], sd[hit]
+        kind[i_pt] = np.where(sd > 0.0, END_FILM_OUT, END_FILM_IN)
+        other[i_pt] = i_e
+        return kind, other
 
     # ----------------------------------------------------------------- active set and faces
     def _build_active(self, keep_nodes: np.ndarray | None) -> None:
