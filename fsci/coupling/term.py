@@ -554,9 +554,10 @@ class CouplingTerm:
     def _gather_crossed_edges(system, pc: CouplingPieces, base: np.ndarray, zidx: np.ndarray, conn: np.ndarray,
                               Xe: np.ndarray) -> None:
         """Slots of the other bodies' edges that the pieces' ends and extension points of the
-        kinds ``MOVING_ENDS`` cross (or whose closed film's line they meet) (the coordinate is the edge's index among all bodies' boundary edges,
-        in the cut's order): reference coordinates into ``Xe[:, 2:8]``, local unknowns from
-        ``OFF_END``, global nodes into slots 18-23."""
+        kinds ``MOVING_ENDS`` cross or whose closed film's line they meet (the coordinate is
+        the edge's index among all bodies' boundary edges, in the cut's order): reference
+        coordinates into ``Xe[:, 2:8]``, local unknowns from ``OFF_END``, global nodes into
+        slots 18-23."""
         ends = [np.nonzero(np.isin(d, MOVING_ENDS))[0] for d in (pc.d0, pc.d1, pc.ext_d)]
         if system.cut is None or not any(len(e) for e in ends):
             return

@@ -232,7 +232,8 @@ def piece_residual(z, r, out, ip, fp, Xo, prmo, Xm, prmm, W, vq, kap, Xe, We, vq
         et1 = Xe[1, 1] + z[OFF_EDGE + 3] - ea1
         # the transition point: fixed, or where the extension edge crosses another body's edge
         B0, B1, w0, w1 = _crossed_edge(z, Xe, 2)
-        se = _piece_end(ip[I_DE], fp[F_SE], fp[F_CE], ea0, ea1, et0, et1, 1.0, 0.0, 0.0, 0.0, 0.0, B0, B1, w0, w1, fp[F_FILM])
+        se = _piece_end(ip[I_DE], fp[F_SE], fp[F_CE], ea0, ea1, et0, et1, 1.0, 0.0, 0.0, 0.0, 0.0, B0, B1, w0, w1,
+                        fp[F_FILM])
         eL = np.sqrt(et0 * et0 + et1 * et1)
         m0 = et1 / eL
         m1 = -et0 / eL
@@ -531,8 +532,8 @@ def _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_a
                 for l in range(N_LOCAL):
                     Kf[l, j] = rc[l].imag / CS_STEP
             if shape:
-                add_bulk_shape_derivative(Kf, z, ip_all[k], fp_all[k], Xo_all[k], Xm_all[k], Xe_all[k], Vo_all[k], Vb_all[k], bq_all[k], fprm, gp,
-                                          gw)
+                add_bulk_shape_derivative(Kf, z, ip_all[k], fp_all[k], Xo_all[k], Xm_all[k], Xe_all[k], Vo_all[k],
+                                          Vb_all[k], bq_all[k], fprm, gp, gw)
 
 
 @njit(cache=True)
