@@ -34,11 +34,11 @@ Local unknowns of a piece (``N_LOCAL`` = 56, absent slots are skipped):
 ``[own element u (8) | opposite element u (8) | fluid cell (v_x, v_y, p) × 4 | extension cell × 4 |
 extension edge u (4) | other body's edge crossed at end 0 u (4) | at end 1 (4) | at the
 extension point (4)]``. The Jacobian is the exact derivative by complex step over the live slots,
-including the motion of the split points (Remark 9) and of the ends where the edge crosses
-another body's boundary (the end of the wetted part in contact, and the extension point there),
-g_n, x̌, n, σ̌, κ(g_n) and the extended
-values' dependence on the transition cell and edge; the piece's parameter range on a fluid-cell
-split and the transition point's parameter are frozen with the cut (docs/architecture.md).
+including the motion of the split points (Remark 9), of the ends where the edge crosses a grid
+line or another body's boundary or where a closed film ends (the end of the wetted part in
+contact, and the extension point there), g_n, x̌, n, σ̌, κ(g_n) and the extended values'
+dependence on the transition cell and edge; an end elsewhere (a held dry region, a mitre corner
+of a closed film) is fixed with the cut (docs/architecture.md, decisions 21 and 39).
 """
 
 from __future__ import annotations
@@ -114,11 +114,14 @@ def _piece_end(d, s_fixed, c, A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1
         return (c - A0) / t0
     if d == 3:
         return (c - A1) / t1
+    den = t0 * w1 - t1 * w0
+    if abs(den.real) <= 1e-12 * np.sqrt(L2.real * (w0.real * w0.real + w1.real * w1.real)):
+        return s_fixed + 0.0 * A0  # the edges turned parallel since the cut: no crossing to follow
     if d >= 5:
         off = (film if d == 5 else -film) / np.sqrt(w0 * w0 + w1 * w1)
         B0 = B0 + off * w1
         B1 = B1 - off * w0
-    return ((B0 - A0) * w1 - (B1 - A1) * w0) / (t0 * w1 - t1 * w0)
+    return ((B0 - A0) * w1 - (B1 - A1) * w0) / den
 
 
 @njit(cache=True, inline="always")
@@ -232,8 +235,8 @@ def piece_residual(z, r, out, ip, fp, Xo, prmo, Xm, prmm, W, vq, kap, Xe, We, vq
         et1 = Xe[1, 1] + z[OFF_EDGE + 3] - ea1
         # the transition point: fixed, or where the extension edge crosses another body's edge
         B0, B1, w0, w1 = _crossed_edge(z, Xe, 2)
-        se = _piece_end(ip[I_DE], fp[F_SE], fp[F_CE], ea0, ea1, et0, et1, 1.0, 0.0, 0.0, 0.0, 0.0, B0, B1, w0, w1,
-                        fp[F_FILM])
+        se = _piece_end(ip[I_DE], fp[F_SE], fp[F_CE], ea0, ea1, et0, et1, et0 * et0 + et1 * et1, 0.0, 0.0, 0.0, 0.0,
+                        B0, B1, w0, w1, fp[F_FILM])
         eL = np.sqrt(et0 * et0 + et1 * et1)
         m0 = et1 / eL
         m1 = -et0 / eL
