@@ -426,7 +426,7 @@ class CouplingTerm:
         ip[:, tk.I_DE] = pc.ext_d
         fp[:, tk.F_CE] = pc.ext_c
         if system.cut is not None:  # half-thickness of closed films (fsci.cut.state.END_FILM_OUT)
-            fp[:, tk.F_FILM] = system.cut.film_closure * system._smallest_cell_side()
+            fp[:, tk.F_FILM] = system.cut.film_delta
         has_opp = pc.opp_body >= 0
         has_ext = pc.ext_edge >= 0
         flags = np.where(has_opp, tk.HAS_OPP, 0) | np.where(pc.fs, tk.ON_FS, 0) | np.where(has_ext, tk.HAS_EXT, 0)

@@ -297,14 +297,18 @@ class CutState:
             return False
         return 2.0 * part.area / part.length < self.trapped_film * h
 
+    @property
+    def film_delta(self) -> float:
+        """Half-thickness δ of the films that are closed: ``film_closure`` × (smallest cell)."""
+        g = self.grid
+        return self.film_closure * float(min(np.diff(g.xs).min(), np.diff(g.ys).min()))
+
     def _closed_films(self, bodies: list[shapely.Geometry]) -> list[shapely.Geometry]:
         """Regions within δ of two different bodies: films thinner than 2δ between bodies in
         contact, whose sign of the (tiny) discrete gap must not decide what is fluid."""
         if self.film_closure <= 0.0 or len(bodies) < 2:
             return []
-        g = self.grid
-        d = self.film_closure * float(min(np.diff(g.xs).min(), np.diff(g.ys).min()))
-        grown = shapely.buffer(np.array(bodies, dtype=object), d, join_style="mitre")
+        grown = shapely.buffer(np.array(bodies, dtype=object), self.film_delta, join_style="mitre")
         i, j = shapely.STRtree(grown).query(grown, predicate="intersects")
         pairs = i < j
         if not pairs.any():
@@ -444,11 +448,14 @@ class CutState:
         cross_s = np.zeros(0)
         cross_kind = np.zeros(0, dtype=np.int64)
         cross_other = np.zeros(0)
+        others = None  # every body's boundary edges (p0, p1, body, tree), for crossings and film ends
         if nb > 1 and len(a_if):
             p0 = np.vstack([o.x[o.all_edges[:, 0]] for o in self.outlines])
             p1 = np.vstack([o.x[o.all_edges[:, 1]] for o in self.outlines])
             body_all = np.repeat(np.arange(nb), [len(o.all_edges) for o in self.outlines])
-            i_mine, i_other = shapely.STRtree(shapely.linestrings(np.stack([p0, p1], axis=1))).query(lines_if)
+            tree_all = shapely.STRtree(shapely.linestrings(np.stack([p0, p1], axis=1)))
+            others = (p0, p1, body_all, tree_all)
+            i_mine, i_other = tree_all.query(lines_if)
             other = body_if[i_mine] != body_all[i_other]
             i_mine, i_other = i_mine[other], i_other[other]
             if len(i_mine):
@@ -475,7 +482,7 @@ class CutState:
                 ok = (sp > 0.0) & (sp < 1.0)
                 on_edge_i, on_s = i_mine[ok], sp[ok]
                 on_body = body_if[on_edge_i]
-                on_kind, on_other = self._film_ends(fluid_pts[i_pt[ok]], on_body, hmin)
+                on_kind, on_other = self._film_ends(fluid_pts[i_pt[ok]], on_body, hmin, others)
         rows = []
         for b, o in enumerate(self.outlines):
             a = a_if[off[b]:off[b + 1]]
@@ -571,23 +578,22 @@ class CutState:
         self.segments = Segments(body, edge, s0, s1, cell, part, fs.astype(bool), ends[0].astype(np.int64),
                                  ends[1], ends[2].astype(np.int64), ends[3], inside)
 
-    def _film_ends(self, pts: np.ndarray, body: np.ndarray, hmin: float) -> tuple[np.ndarray, np.ndarray]:
+    def _film_ends(self, pts: np.ndarray, body: np.ndarray, hmin: float,
+                   others: tuple | None) -> tuple[np.ndarray, np.ndarray]:
         """Kinds and other edges of the fluid region's vertices ``pts`` lying on edges of bodies
         ``body``: where a closed film ends (:meth:`_closed_films`) the vertex lies on the line at
         distance δ = film_closure × ``hmin`` from an edge of another body, within the edge's
         extent; there the end moves with both edges (END_FILM_OUT / END_FILM_IN, the index of
         that edge among all bodies' boundary edges). Elsewhere (a mitre corner of the grown
-        outline, a held dry region) the end stays fixed."""
+        outline, a held dry region) the end stays fixed. ``others``: every body's boundary edges
+        ``(p0, p1, body, STRtree)`` (None with a single body)."""
         kind = np.full(len(pts), END_FIXED, dtype=np.int64)
         other = np.zeros(len(pts))
-        if self.film_closure <= 0.0 or len(self.outlines) < 2 or not len(pts):
+        if self.film_closure <= 0.0 or others is None or not len(pts):
             return kind, other
-        delta = self.film_closure * hmin
+        delta = self.film_delta
         tol = 1e-9 * hmin
-        p0 = np.vstack([o.x[o.all_edges[:, 0]] for o in self.outlines])
-        p1 = np.vstack([o.x[o.all_edges[:, 1]] for o in self.outlines])
-        body_all = np.repeat(np.arange(len(self.outlines)), [len(o.all_edges) for o in self.outlines])
-        tree = shapely.STRtree(shapely.linestrings(np.stack([p0, p1], axis=1)))
+        p0, p1, body_all, tree = others
         i_pt, i_e = tree.query(shapely.points(pts), predicate="dwithin", distance=delta + tol)
         keep = body_all[i_e] != body[i_pt]
         i_pt, i_e = i_pt[keep], i_e[keep]
