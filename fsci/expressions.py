@@ -64,6 +64,7 @@ class Expression:
         try:
             tree = ast.parse(text, mode="eval")
             self._check(tree.body)
+            self.uses_time = any(isinstance(n, ast.Name) and n.id == "t" for n in ast.walk(tree))
             tree = ast.fix_missing_locations(_Floats().visit(tree))
             self._code = compile(tree, f"<{field}>", "eval")
         except SyntaxError as exc:

@@ -241,3 +241,46 @@ class Problem:
     source: dict[str, Any]  # the (overridden) case dictionary it was read from
     contact: ContactSettings = field(default_factory=ContactSettings)
     verification: Verification | None = None  # None: the case makes no verified_at claim
+
+
+def _load_data(problem: Problem) -> list[tuple[list[Any], TimeFunction | None]]:
+    """Every prescribed datum of the problem: its expressions and the time function scaling them."""
+    data: list[tuple[list[Any], TimeFunction | None]] = []
+    sources = [(b.body_force or [], b.body_force_function, b.dirichlet, b.neumann) for b in problem.bodies]
+    if problem.fluid is not None:
+        f = problem.fluid
+        sources.append((f.body_force or [], f.body_force_function, f.dirichlet, f.neumann))
+    for body_force, fn, dirichlet, neumann in sources:
+        data.append((list(body_force), fn))
+        data += [(list(d.values), d.function) for d in dirichlet]
+        data += [(list(n.values), n.function) for n in neumann]
+    for b in problem.bodies:
+        data.append((list(b.interface_velocity or []) + [b.slip_length], None))
+    return data
+
+
+def load_step_ratio(problem: Problem, t_prev: float, t_old: float, t_new: float) -> float:
+    """How the data change over the static step ``t_old → t_new`` compares with their change
+    over the last step ``t_prev → t_old``: the factor α with ``f(t_new) − f(t_old) = α (f(t_old)
+    − f(t_prev))`` for every time function ``f`` of the problem (1 along a ramp, −1 where a
+    table turns back). 0 where there is no such factor: an expression depends on ``t``, data
+    change in different proportions, or a datum starts to change."""
+    alpha = None
+    for exprs, fn in _load_data(problem):
+        if any(isinstance(e, Expression) and e.uses_time for e in exprs):
+            return 0.0
+        if fn is None:
+            continue
+        f0, f1, f2 = fn(t_prev), fn(t_old), fn(t_new)
+        tol = 1e-12 * max(1.0, abs(f0), abs(f1), abs(f2))
+        before, now = f1 - f0, f2 - f1
+        if abs(before) <= tol:
+            if abs(now) > tol:
+                return 0.0
+            continue
+        a = now / before
+        if alpha is None:
+            alpha = a
+        elif abs(a - alpha) > 1e-9 * max(1.0, abs(alpha)):
+            return 0.0
+    return 0.0 if alpha is None else alpha

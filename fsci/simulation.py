@@ -31,7 +31,7 @@ from fsci import __version__
 from fsci.errors import InputError, SolverError
 from fsci.fields import StepContext
 from fsci.post.quantities import QuantityEvaluator
-from fsci.problem import Problem
+from fsci.problem import Problem, load_step_ratio
 from fsci.solver.linear import make_linear_solver
 from fsci.solver.newton import NewtonReport, solve_nonlinear
 from fsci.system import System, restore, snapshot
@@ -176,7 +176,7 @@ class Simulation:
         hold = False  # contact that swings is held (decision 38)
         while True:
             saved = snapshot(self.system)
-            ctx = StepContext(self.t, self.t + dt, dt, p.time.theta, static)
+            ctx = StepContext(self.t, self.t + dt, dt, p.time.theta, static, self._load_lead(dt) if static else 0.0)
             try:
                 self._in_solve = True  # a signal now stops at once: the step start is restored
                 try:
@@ -238,6 +238,14 @@ class Simulation:
         for hook in self.step_hooks:
             hook(self, ctx, rep)
         return ctx
+
+    def _load_lead(self, dt: float) -> float:
+        """``lead`` of a static step of size ``dt`` from now (:class:`StepContext`): the ratio of
+        its data change to the last step's, times the last step's length (0 at the first step)."""
+        if not self.history:
+            return 0.0
+        dt_last = float(self.history[-1]["dt"])
+        return load_step_ratio(self.problem, self.t - dt_last, self.t, self.t + dt) * dt_last
 
     def _after_reduced_step(self, dt: float, k: int, dt_nom: float) -> tuple[float, int]:
         """Step size and count of converged steps at it after one more converged step of the

@@ -19,7 +19,7 @@ from fsci.coupling import CouplingTerm
 from fsci.cut.state import CutState
 from fsci.errors import GeometryError, InputError, SolverError
 from fsci.fem.sparse import DofLayout, PatternCache
-from fsci.fields import FluidField, SolidField, StepContext
+from fsci.fields import FLUID_VALUES, FluidField, SolidField, StepContext
 from fsci.geometry.outlines import Outline, body_polygon, check_in_box, warn_if_thin
 from fsci.problem import Problem
 
@@ -131,6 +131,11 @@ class System:
         changed by at most ``solver.outer_tol`` relative to the velocity (plus the increment
         tolerance, so that a fluid at rest — velocity at round-off — counts as converged)."""
         return self.stab_change <= settings.outer_tol * self.stab_scale + settings.tol_increment
+
+    def lag_settled(self, tol: float) -> bool:
+        """Whether the lagged stabilisation velocity of steady flow changed by at most ``tol`` at
+        the last iteration (always for a system without fluid)."""
+        return self.stab_change <= tol
 
     def _smallest_cell_side(self) -> float:
         g = self.fluid.grid
@@ -387,7 +392,7 @@ class System:
         return asm
 
 
-FLUID_STATE = ("V", "P", "Vn", "Pn", "Vbar", "active", "vnode_node", "vnode_rep")
+FLUID_STATE = FLUID_VALUES + ("active", "vnode_node", "vnode_rep")
 
 
 def snapshot(system: System) -> dict[str, np.ndarray]:
@@ -414,7 +419,9 @@ def restore(system: System, state: dict[str, np.ndarray]) -> None:
         old_active = f.active.copy()
         n = f.grid.n_nodes
         for k in FLUID_STATE:
-            default = {"vnode_node": np.arange(n), "vnode_rep": f.grid.nodes}.get(k)  # written before virtual nodes
+            # checkpoints written before virtual nodes or the load-step predictor lack these
+            default = {"vnode_node": np.arange(n), "vnode_rep": f.grid.nodes,
+                       "Vrate": np.zeros_like(f.V), "Prate": np.zeros_like(f.P)}.get(k)
             setattr(f, k, state.get(f"fluid.{k}", default).copy())
         if not np.array_equal(old_active, f.active):
             system.build_layout()

@@ -110,10 +110,12 @@ class NoisySystem(OvershootingSystem):
     """``R(x) = A x − b + e`` with ``A`` of eigenvalues 1 … 1e-5 and a fresh round-off ``e`` of
     size 1e-12 at every assembly: below the residual tolerance 1e-10, but its solve moves ``x`` by
     up to 1e-7, far above the increment tolerance 1e-10. ``own_after``: the state is its cut's own
-    only once :meth:`follow_cut_again` was called (a frozen cut the bodies moved away from)."""
+    only once :meth:`follow_cut_again` was called (a frozen cut the bodies moved away from).
+    ``lag``: the change of a steady flow's lagged stabilisation velocity at every iteration."""
 
-    def __init__(self, n: int, own_after_recut: bool = False) -> None:
+    def __init__(self, n: int, own_after_recut: bool = False, lag: float = 0.0) -> None:
         super().__init__(n, 1.0, follows=False)
+        self.lag = lag
         q, _ = np.linalg.qr(np.random.default_rng(3).standard_normal((n, n)))
         self.A = q @ np.diag(np.geomspace(1.0, 1e-5, n)) @ q.T
         self.noise = np.random.default_rng(4)
@@ -128,6 +130,9 @@ class NoisySystem(OvershootingSystem):
     def cut_is_own(self) -> bool:
         return self.own
 
+    def lag_settled(self, tol: float) -> bool:
+        return self.lag <= tol
+
     def follow_cut_again(self, it: int) -> None:
         self.recut_at.append(it)
         self.own = True
@@ -141,8 +146,9 @@ def test_newton_stops_at_the_round_off_floor():
     """A residual at its round-off floor (below the tolerance, no longer falling) ends Newton
     although the solves of that round-off keep moving the state by more than the increment
     tolerance (decision 38): converged within a few iterates of the first whose residual passes
-    (without the rule, as for a steady problem: not in 25 iterations), within the round-off's
-    reach of the solution. A
+    (without the rule: not in 25 iterations), within the round-off's reach of the solution. In
+    steady flow the same once the lagged stabilisation velocity no longer changes, and not while
+    it does. A
     frozen cut that is not the state's own is left for a re-cut at the first iterate whose
     residual passes, not after the increments pass too."""
     system = NoisySystem(6)
@@ -151,7 +157,57 @@ def test_newton_stops_at_the_round_off_floor():
     passed = [k for k, r in enumerate(rep.residuals) if r <= 1e-10]
     assert rep.converged and rep.iterations <= passed[0] + 4
     np.testing.assert_allclose(system.x, system.solution(), rtol=0, atol=1e-5)
-    assert not _solve(NoisySystem(6), relaxation=False, static=True).converged  # steady: no floor rule
+    assert not _solve(NoisySystem(6, lag=1e-6), relaxation=False, static=True).converged  # still lagging
+    steady = NoisySystem(6)
+    rep = _solve(steady, relaxation=False, static=True)
+    assert rep.converged and rep.iterations <= passed[0] + 4
+    np.testing.assert_allclose(steady.x, steady.solution(), rtol=0, atol=1e-5)
     recut = NoisySystem(6, own_after_recut=True)
     rep = _solve(recut, relaxation=False, static=False)
     assert rep.converged and recut.recut_at == [passed[0] + 1]
+
+
+def test_a_steady_flow_step_starts_from_the_secant_predictor():
+    """The flow of a static (load) step starts from ``x_n + Δ (x_n − x_(n−1)) / Δ_n``: the
+    distance from the start of the cavity's step 0.5 → 0.5 + Δ (after a step of Δ) to its
+    solution falls as Δ² (it fell as Δ from the last solution)."""
+    from fsci.cases import get_case
+    from fsci.config import apply_override, problem_from_dict
+    from fsci.simulation import Simulation
+
+    def distance(d: float) -> float:
+        case = get_case("cavity")
+        apply_override(case, "n=8")
+        case["time"] = {"type": "static", "segments": [{"until": 0.5 - d, "dt": 0.5 - d}, {"until": 0.5 + d, "dt": d}]}
+        case["output"] = {"every": 0, "figures": False, "fields": False}
+        sim = Simulation(problem_from_dict(case))
+        f = sim.system.fluid
+        start = []
+        begin = sim.system.begin_step
+        sim.system.begin_step = lambda ctx, **kw: (begin(ctx, **kw), start.append(np.concatenate([f.V.ravel(), f.P])))
+        sim.run()
+        return float(np.max(np.abs(np.concatenate([f.V.ravel(), f.P]) - start[-1])))
+
+    e = [distance(d) for d in (0.1, 0.05)]
+    assert np.log2(e[0] / e[1]) > 1.8
+
+
+def test_load_step_ratio():
+    """The ratio of a step's data change to the last step's: 1 along a ramp, −1 where a table
+    turns back, the step ratio at a change of step size, and 0 (no prediction) where a datum
+    stops or starts to change or an expression depends on t."""
+    from fsci.cases import get_case
+    from fsci.config import problem_from_dict
+    from fsci.problem import load_step_ratio
+
+    blocks = problem_from_dict(get_case("two-blocks"))  # a table 0 → 1 → 0 at t = 0, 1, 2
+    assert load_step_ratio(blocks, 0.3, 0.4, 0.5) == pytest.approx(1.0)
+    assert load_step_ratio(blocks, 0.3, 0.4, 0.6) == pytest.approx(2.0)
+    assert load_step_ratio(blocks, 0.9, 1.0, 1.1) == pytest.approx(-1.0)
+    fsi1 = get_case("turek-hron-fsi1")  # a ramp to t = 1
+    assert load_step_ratio(problem_from_dict(fsi1), 0.0, 0.5, 1.0) == pytest.approx(1.0)
+    assert load_step_ratio(problem_from_dict(fsi1), 0.5, 1.0, 1.5) == 0.0  # constant after the ramp
+    fsi1["fluid"]["dirichlet"][0]["function"] = {"type": "ramp", "t0": 0.5, "t1": 1.0}
+    assert load_step_ratio(problem_from_dict(fsi1), 0.0, 0.5, 1.0) == 0.0  # the inflow starts now
+    fsi1["fluid"]["dirichlet"][0]["value"][0] = "6*U*y*(H-y)/H**2*t"
+    assert load_step_ratio(problem_from_dict(fsi1), 0.0, 0.5, 1.0) == 0.0

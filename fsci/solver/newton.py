@@ -12,7 +12,8 @@ Convergence is checked per field (displacement, velocity, pressure): every resid
 ``||R_f||_2 <= max(tol_residual, rtol_residual * ||R_f^(0)||_2)`` and every increment norm
 ``||dx_f||_inf <= tol_increment`` — or, instead of the increments, the residual is at its
 round-off floor: within ``tol_residual`` in every field, passing at the last iterate too, and
-fallen by less than ``1 - FLOOR_RATE`` since (transient steps only).
+fallen by less than ``1 - FLOOR_RATE`` since (in steady flow also the lagged stabilisation
+velocity settled within ``tol_increment``).
 """
 
 from __future__ import annotations
@@ -172,11 +173,12 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
         # at the last iterate as well and no longer falls, so the increments are the round-off of
         # the solves (the pressure's, with an absolute tolerance, can stay above it for good) and
         # need not pass theirs (decision 38). Not on the relative test: where Newton converges
-        # linearly (in contact) a residual that passes it can still be creeping; not for steady
-        # flow, whose stabilisation velocity is lagged inside Newton, so that its residual
-        # stalls while the state still moves
-        floor = (not ctx.static and res_ok_before and bool(totals) and total > FLOOR_RATE * totals[-1]
-                 and all(v <= settings.tol_residual for v in norms.values()))
+        # linearly (in contact) a residual that passes it can still be creeping; for steady flow
+        # only once its lagged stabilisation velocity changed by at most the increment tolerance
+        # (before, the residual can stall while the state still moves)
+        floor = (res_ok_before and bool(totals) and total > FLOOR_RATE * totals[-1]
+                 and all(v <= settings.tol_residual for v in norms.values())
+                 and (not ctx.static or not hasattr(system, "lag_settled") or system.lag_settled(settings.tol_increment)))
         solves = it - 1
         extra_ok = system.converged_extra(settings) if hasattr(system, "converged_extra") else True
         recut = False
