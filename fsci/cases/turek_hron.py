@@ -135,7 +135,7 @@ def fsi1() -> dict[str, Any]:
         "name": "turek-hron-fsi1",
         "kind": "fsi",
         "description": "Turek-Hron FSI1: elastic bar behind a cylinder in channel flow, steady, both embedded (CutFEM)",
-        # m = 12, r = 1 aligned: uy(A) −0.68 %; other positions scatter −6 … +4 %; r = 8: +0.18 … +1.54 %,
+        # m = 12, r = 1 aligned: uy(A) +0.34 %; other positions scatter −6 … +4 %; r = 8: +0.18 … +1.54 %,
         # mean +0.89 % over six positions (docs/validation.md)
         "parameters": params,
         "verified_at": dict(params),
@@ -157,7 +157,7 @@ def fsi1() -> dict[str, Any]:
             {"name": "drag", "type": "body_force", "body": ["cylinder", "bar"], "component": 0},
             {"name": "lift", "type": "body_force", "body": ["cylinder", "bar"], "component": 1},
         ],
-        "reference": [  # measured +0.25 %, −0.68 %, +0.32 %, +0.45 %
+        "reference": [  # measured +0.14 %, +0.34 %, +0.32 %, +0.52 % (docs/validation.md)
             {"name": "ux_A", "value": 2.270493e-5, "rtol": 0.004, "source": "FeatFlow FSI1 level 7+0"},
             {"name": "uy_A", "value": 8.208773e-4, "rtol": 0.01, "source": "FeatFlow FSI1 level 7+0"},
             {"name": "drag", "value": 14.29426, "rtol": 0.01, "source": "FeatFlow FSI1 level 7+0"},
