@@ -137,15 +137,6 @@ class System:
         the last iteration (always for a system without fluid)."""
         return self.stab_change <= tol
 
-    def _kept_dofs(self) -> np.ndarray:
-        """Dofs of the nodes a grow-only re-cut kept ACTIVE although no cell of theirs has fluid:
-        held at their values by identity rows (they are in no cell or face, decision 41)."""
-        cut = self.cut
-        if cut is None or not self.solids:
-            return np.zeros(0, dtype=np.int64)
-        nodes = np.nonzero(cut.node_active & ~cut.node_active_own)[0]
-        return (self.layout.start[self.fluid.gnode[nodes]][:, None] + np.arange(3)).ravel()
-
     def _smallest_cell_side(self) -> float:
         g = self.fluid.grid
         return min(float(np.diff(g.xs).min()), float(np.diff(g.ys).min()))
@@ -394,8 +385,6 @@ class System:
         for term in self.extra_terms:
             term.assemble(self, asm, ctx)
         if dirichlet:
-            kept = self._kept_dofs()
-            asm.apply_dirichlet(kept, np.zeros(len(kept)))
             dofs, vals = self.dirichlet(ctx.t_new)
             asm.apply_dirichlet(dofs, self.gather()[dofs] - vals)
         self.timings["assembly"] += time.perf_counter() - t0

@@ -627,14 +627,10 @@ class CutState:
         physical = self.state != SOLID
         active = np.zeros(n, dtype=bool)
         active[g.cells[physical].ravel()] = True
-        self.node_active_own = active.copy()  # without the kept nodes
         if keep_nodes is not None:
             active |= keep_nodes
         self.node_active = active
-        # kept nodes (in no cell with fluid) are left out of the faces: they must not carry CIP
-        # or ghost penalty into solid cells, which would make the solution depend on the
-        # iterates that activated them; the system holds them by identity rows (decision 41)
-        face_cell = np.all(self.node_active_own[g.cells], axis=1)
+        face_cell = np.all(active[g.cells], axis=1)
         self.face_cell = face_cell
         f = g.faces
         both = face_cell[f[:, 0]] & face_cell[f[:, 1]]
