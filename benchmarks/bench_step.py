@@ -6,10 +6,12 @@ cProfile (top ``--top`` entries by internal time and by cumulative time).
     python benchmarks/bench_step.py                       # 30 warm-up steps, 20 profiled
     python benchmarks/bench_step.py --steps 5 --top 15 --no-profile
     python benchmarks/bench_step.py --case turek-hron-fsi1 --set m=12 --warm 0 --steps 1
+    NUMBA_NUM_THREADS=1 python benchmarks/bench_step.py --cpu --no-profile --split --steps 60
 
 Printed per Newton iteration (means over the timed steps): cut, assembly, factorisation,
 solve, and the rest ("other": Newton bookkeeping, quantities, step start), in milliseconds;
-then the residual history of the last timed step.
+then the residual history of the last timed step. ``--split``: also the parts of the cut and
+of the assembly, each timed by wrapping its function.
 """
 
 from __future__ import annotations
@@ -33,6 +35,44 @@ def build(case_name: str, overrides: list[str]) -> Simulation:
     return Simulation(problem_from_dict(case))
 
 
+# the parts of the cut and of the assembly that --split times: (module, owner, function, label)
+SPLIT = [("fsci.cut.state", "CutState", "_build_region", "cut: fluid region"),
+         ("fsci.cut.state", "CutState", "_classify_cells", "cut: cell classes"),
+         ("fsci.cut.state", "CutState", "_build_quadrature", "cut: cut-cell quadrature"),
+         ("fsci.cut.state", "CutState", "_build_segments", "cut: boundary segments"),
+         ("fsci.cut.state", "CutState", "_build_active", "cut: ACTIVE set"),
+         ("fsci.system", "System", "outlines", "cut: outlines"),
+         ("fsci.coupling.term", None, "build_pieces", "assembly: coupling pieces"),
+         ("fsci.coupling.term", "CouplingTerm", "_gather_static", "assembly: their step data"),
+         ("fsci.coupling.traction", None, "assemble_pieces", "assembly: coupling kernel"),
+         ("fsci.fields", "FluidField", "assemble", "assembly: fluid"),
+         ("fsci.fields", "SolidField", "assemble", "assembly: solid")]
+
+
+def time_parts(clock) -> tuple[dict[str, float], dict[str, int]]:
+    """Wrap the functions of :data:`SPLIT` to add their time (``clock``) and calls to the
+    returned dictionaries."""
+    import importlib
+
+    spent: dict[str, float] = {label: 0.0 for *_, label in SPLIT}
+    calls: dict[str, int] = {label: 0 for *_, label in SPLIT}
+    for module, owner, name, label in SPLIT:
+        obj = importlib.import_module(module)
+        obj = getattr(obj, owner) if owner else obj
+        func = getattr(obj, name)
+
+        def timed(*a, _f=func, _label=label, **k):
+            t0 = clock()
+            try:
+                return _f(*a, **k)
+            finally:
+                spent[_label] += clock() - t0
+                calls[_label] += 1
+
+        setattr(obj, name, timed)
+    return spent, calls
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--case", default="stamp")
@@ -42,6 +82,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--steps", type=int, default=20, help="timed steps")
     ap.add_argument("--top", type=int, default=15)
     ap.add_argument("--no-profile", action="store_true", help="time only (no cProfile overhead)")
+    ap.add_argument("--split", action="store_true", help="also time the parts of the cut and the assembly")
     ap.add_argument("--cpu", action="store_true",
                     help="CPU time of this process instead of wall time (phases and profile; steadier on a shared "
                          "machine; PARDISO runs one thread below 20k unknowns, so both agree on an idle machine)")
@@ -64,6 +105,7 @@ def main(argv: list[str] | None = None) -> None:
     sim.step_hooks.append(lambda s, ctx, rep: residuals.append(rep.residuals))
     for _ in range(args.warm):
         sim.advance()
+    parts = time_parts(clock) if args.split else None
     sys_t0 = dict(sim.system.timings)
     lin_t0 = dict(sim.linear.timings)
     cnt0 = dict(sim.linear.counts)
@@ -91,6 +133,12 @@ def main(argv: list[str] | None = None) -> None:
           f"{'CPU' if args.cpu else 'wall'} {wall:.3f} s{' (under cProfile)' if prof else ''}")
     print("per Newton iteration [ms]: " + ", ".join(f"{k} {1e3 * v / max(its, 1):.2f}" for k, v in d.items())
           + f", other {1e3 * other / max(its, 1):.2f}, total {1e3 * wall / max(its, 1):.2f}")
+    if fac:
+        print(f"one factorisation: {1e3 * d['factorization'] / fac:.2f} ms")
+    if parts is not None:
+        spent, calls = parts
+        for label in spent:
+            print(f"  {label:30s} {1e3 * spent[label] / max(its, 1):6.2f} ms per iteration ({calls[label]} calls)")
     print("last step residuals: " + ", ".join(f"{r:.2e}" for r in residuals[-1]))
     if prof is not None:
         for key in ("tottime", "cumulative"):
