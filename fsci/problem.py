@@ -263,8 +263,9 @@ def load_step_ratio(problem: Problem, t_prev: float, t_old: float, t_new: float)
     """How the data change over the static step ``t_old → t_new`` compares with their change
     over the last step ``t_prev → t_old``: the factor α with ``f(t_new) − f(t_old) = α (f(t_old)
     − f(t_prev))`` for every time function ``f`` of the problem (1 along a ramp, −1 where a
-    table turns back). 0 where there is no such factor: an expression depends on ``t``, data
-    change in different proportions, or a datum starts to change."""
+    table turns back, 0 where the data stop changing). 0 also where there is no such factor: an
+    expression depends on ``t``, data change in different proportions, or a datum starts to
+    change."""
     alpha = None
     for exprs, fn in _load_data(problem):
         if any(isinstance(e, Expression) and e.uses_time for e in exprs):

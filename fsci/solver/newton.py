@@ -176,9 +176,9 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
         # linearly (in contact) a residual that passes it can still be creeping; for steady flow
         # only once its lagged stabilisation velocity changed by at most the increment tolerance
         # (before, the residual can stall while the state still moves)
-        floor = (res_ok_before and bool(totals) and total > FLOOR_RATE * totals[-1]
-                 and all(v <= settings.tol_residual for v in norms.values())
-                 and (not ctx.static or not hasattr(system, "lag_settled") or system.lag_settled(settings.tol_increment)))
+        settled = not ctx.static or not hasattr(system, "lag_settled") or system.lag_settled(settings.tol_increment)
+        floor = (res_ok_before and bool(totals) and total > FLOOR_RATE * totals[-1] and settled
+                 and all(v <= settings.tol_residual for v in norms.values()))
         solves = it - 1
         extra_ok = system.converged_extra(settings) if hasattr(system, "converged_extra") else True
         recut = False
