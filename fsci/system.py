@@ -25,6 +25,9 @@ from fsci.problem import Problem
 
 HOLD_AFTER_FLIPS = 2  # changes of the fluid's topology within a step after which dry regions are held
 HOLD_MARGIN = 0.05  # a held region is grown by this × (smallest cell side): the bodies move on
+# times in a step a converged state is solved again without the nodes that grow-only re-cuts kept
+# (decision 41); after that, such a state is accepted as it is
+MAX_OWN_DROPS = 2
 
 
 class System:
@@ -43,6 +46,8 @@ class System:
         self.hold_swings = False  # hold contact that swings in this attempt (decision 38)
         self._cut_frozen = False
         self._follow_until = 0  # the cut follows the iterates up to this iteration of the step
+        self._own_drops = 0  # re-cuts of the step that dropped kept nodes (decision 41)
+        self._drop_kept = False  # the next re-cut drops them
         self._dry_seen = shapely.Polygon()  # islands of this step's cuts
         self._islands_last: int | None = None  # number of islands of the last cut
         self._topology_flips = 0  # changes of that number within the step
@@ -149,11 +154,26 @@ class System:
     def cut_is_own(self) -> bool:
         """Whether a state that Newton converged to satisfies its own cut: the cut follows the
         iterates, or on a frozen cut the bodies moved at most ``own_cut_tol`` × (smallest cell)
-        since it was made. Otherwise the state solves another geometry (its forces on the
-        bodies include the mismatch) and :meth:`follow_cut_again` must be called."""
-        if self.fluid is None or not self._cut_frozen:
+        since it was made; and no node is ACTIVE only because a grow-only re-cut kept it (its
+        CIP / ghost-penalty faces reach into cells its cut leaves out, and the state would
+        depend on the iterates that activated it: decision 41), unless such nodes were dropped
+        ``MAX_OWN_DROPS`` times in the step already. The last rule is for steady flow only,
+        whose solution must not depend on the load steps; in a time step the kept nodes lie
+        within the step's motion and the ACTIVE set can cycle where dropping them restarts it
+        (a valve shutting). Otherwise the state solves another geometry or discrete space and
+        :meth:`follow_cut_again` must be called."""
+        if self.fluid is None:
+            return True
+        if self._kept_to_drop():
+            return False
+        if not self._cut_frozen:
             return True
         return self._motion_since_cut() <= self.fluid.spec.interface.own_cut_tol
+
+    def _kept_to_drop(self) -> bool:
+        """Whether a converged steady-flow state holds nodes kept by grow-only re-cuts that are
+        to be dropped (decision 41)."""
+        return self.ctx.static and self.cut.kept_nodes > 0 and self._own_drops < MAX_OWN_DROPS
 
     def cut_follows(self) -> bool:
         """Whether the cut was rebuilt at the current iterate (the shape derivative is then in
@@ -167,8 +187,12 @@ class System:
             self._follow_until = max(self._follow_until, it)
 
     def follow_cut_again(self, it: int) -> None:
-        """A frozen-cut state was not the state's own cut: the cut follows the iterates again
-        for ``freeze_cut_after`` iterations from iteration ``it``."""
+        """A converged state was not the state's own cut: the cut follows the iterates again
+        for ``freeze_cut_after`` iterations from iteration ``it``; the next re-cut drops the
+        nodes that grow-only re-cuts kept (the ACTIVE set then starts again from the cut's own)."""
+        if self._kept_to_drop():
+            self._own_drops += 1
+            self._drop_kept = True
         self._cut_frozen = False
         self._follow_until = it + self.fluid.spec.interface.freeze_cut_after
 
@@ -201,12 +225,15 @@ class System:
         if it > self._follow_until:
             self._cut_frozen = True
             return False  # cut kept fixed: Newton finishes on it (its Jacobian is exact)
-        if self._motion_since_cut() <= st.eps_geom:
+        if self._motion_since_cut() <= st.eps_geom and not self._drop_kept:
             return False
         grow_only = it > st.grow_only_after or self.layout_changes >= st.max_layout_changes
-        keep = self._step_active if grow_only else None
+        keep = self._step_active if grow_only and not self._drop_kept else None
         pieces = len(self.cut.pieces)
         changed = self.update_cut(keep_nodes=keep)
+        if self._drop_kept:
+            self._drop_kept = False
+            self._step_active = self.fluid.node_active.copy()
         if changed:
             self.layout_changes += 1
             self._step_active |= self.fluid.node_active
@@ -350,6 +377,8 @@ class System:
             self.update_cut()
             self.layout_changes = 0
             self.piece_changes = 0
+            self._own_drops = 0
+            self._drop_kept = False
             self._step_active = self.fluid.node_active.copy()
         self.stab_change = 0.0
         self.stab_scale = 0.0

@@ -627,6 +627,8 @@ class CutState:
         physical = self.state != SOLID
         active = np.zeros(n, dtype=bool)
         active[g.cells[physical].ravel()] = True
+        # nodes kept ACTIVE although no PHYSICAL cell of this cut has them (grow-only re-cuts)
+        self.kept_nodes = 0 if keep_nodes is None else int(np.count_nonzero(keep_nodes & ~active))
         if keep_nodes is not None:
             active |= keep_nodes
         self.node_active = active
