@@ -133,6 +133,38 @@ def _positions(conn, nptr, nbr, col_off):
     return out
 
 
+# elements per chunk whose local terms are computed in parallel before they are added: bounds the
+# buffer of local matrices on large grids
+LOCAL_CHUNK = 4096
+# elements per parallel task (each task allocates its scratch arrays once)
+LOCAL_BLOCK = 32
+
+
+@njit(cache=True, inline="always")
+def n_blocks(lo, hi):
+    """Number of tasks of :data:`LOCAL_BLOCK` elements in the chunk ``[lo, hi)``."""
+    return (hi - lo + LOCAL_BLOCK - 1) // LOCAL_BLOCK
+
+
+@njit(cache=True, inline="always")
+def block_range(lo, hi, b):
+    """Elements ``[k0, k1)`` of task ``b`` in the chunk ``[lo, hi)``."""
+    return lo + b * LOCAL_BLOCK, min(hi, lo + (b + 1) * LOCAL_BLOCK)
+
+
+@njit(cache=True)
+def add_locals(conn, gnode, pos, lo, hi, Ke_all, Re_all, data, rhs, row_base, row_len, start, ndof, want_matrix):
+    """Add the local matrices ``Ke_all[k - lo]`` and vectors ``Re_all[k - lo]`` of the elements
+    ``lo <= k < hi`` (nodes ``gnode[conn[k]]``) one after the other in element order, so that
+    the sums do not depend on how many threads computed them."""
+    nodes = np.empty(conn.shape[1], dtype=np.int64)
+    for k in range(lo, hi):
+        for a in range(conn.shape[1]):
+            nodes[a] = gnode[conn[k, a]]
+        add_local(data, rhs, row_base, row_len, start, ndof, nodes, pos[k], Ke_all[k - lo], Re_all[k - lo],
+                  want_matrix)
+
+
 @njit(cache=True)
 def add_local(data, rhs, row_base, row_len, start, ndof, nodes, pos, Ke, Re, want_matrix):
     """Add one local matrix/vector (rows node-major, ``ndof`` components per node).
