@@ -133,6 +133,34 @@ def _positions(conn, nptr, nbr, col_off):
     return out
 
 
+@njit(cache=True)
+def add_local_componentwise(data, rhs, row_base, row_len, start, ndof, nodes, pos, Ke, Re, want_matrix):
+    """As :func:`add_local` for a local matrix that couples only equal components of two nodes
+    (every node-pair block diagonal: the CIP / ghost-penalty terms on faces parallel to an
+    axis). The other entries, zero, are not added: a third of the memory traffic for three
+    components per node."""
+    m = len(nodes)
+    ri = 0
+    for i in range(m):
+        a = nodes[i]
+        if a < 0:
+            continue
+        nda = ndof[a]
+        for c in range(nda):
+            rhs[start[a] + c] += Re[ri + c]
+        if want_matrix:
+            ci = 0
+            for j in range(m):
+                b = nodes[j]
+                if b < 0:
+                    continue
+                off = row_base[a] + pos[i, j]
+                for c in range(min(nda, ndof[b])):
+                    data[off + c * row_len[a] + c] += Ke[ri + c, ci + c]
+                ci += ndof[b]
+        ri += nda
+
+
 # elements per chunk whose local terms are computed in parallel before they are added: bounds the
 # buffer of local matrices on large grids
 LOCAL_CHUNK = 4096
