@@ -134,66 +134,6 @@ def _positions(conn, nptr, nbr, col_off):
 
 
 @njit(cache=True)
-def add_local_componentwise(data, rhs, row_base, row_len, start, ndof, nodes, pos, Ke, Re, want_matrix):
-    """As :func:`add_local` for a local matrix that couples only equal components of two nodes
-    (every node-pair block diagonal: the CIP / ghost-penalty terms on faces parallel to an
-    axis). The other entries, zero, are not added: a third of the memory traffic for three
-    components per node."""
-    m = len(nodes)
-    ri = 0
-    for i in range(m):
-        a = nodes[i]
-        if a < 0:
-            continue
-        nda = ndof[a]
-        for c in range(nda):
-            rhs[start[a] + c] += Re[ri + c]
-        if want_matrix:
-            ci = 0
-            for j in range(m):
-                b = nodes[j]
-                if b < 0:
-                    continue
-                off = row_base[a] + pos[i, j]
-                for c in range(min(nda, ndof[b])):
-                    data[off + c * row_len[a] + c] += Ke[ri + c, ci + c]
-                ci += ndof[b]
-        ri += nda
-
-
-# elements per chunk whose local terms are computed in parallel before they are added: bounds the
-# buffer of local matrices on large grids
-LOCAL_CHUNK = 4096
-# elements per parallel task (each task allocates its scratch arrays once)
-LOCAL_BLOCK = 32
-
-
-@njit(cache=True, inline="always")
-def n_blocks(lo, hi):
-    """Number of tasks of :data:`LOCAL_BLOCK` elements in the chunk ``[lo, hi)``."""
-    return (hi - lo + LOCAL_BLOCK - 1) // LOCAL_BLOCK
-
-
-@njit(cache=True, inline="always")
-def block_range(lo, hi, b):
-    """Elements ``[k0, k1)`` of task ``b`` in the chunk ``[lo, hi)``."""
-    return lo + b * LOCAL_BLOCK, min(hi, lo + (b + 1) * LOCAL_BLOCK)
-
-
-@njit(cache=True)
-def add_locals(conn, gnode, pos, lo, hi, Ke_all, Re_all, data, rhs, row_base, row_len, start, ndof, want_matrix):
-    """Add the local matrices ``Ke_all[k - lo]`` and vectors ``Re_all[k - lo]`` of the elements
-    ``lo <= k < hi`` (nodes ``gnode[conn[k]]``) one after the other in element order, so that
-    the sums do not depend on how many threads computed them."""
-    nodes = np.empty(conn.shape[1], dtype=np.int64)
-    for k in range(lo, hi):
-        for a in range(conn.shape[1]):
-            nodes[a] = gnode[conn[k, a]]
-        add_local(data, rhs, row_base, row_len, start, ndof, nodes, pos[k], Ke_all[k - lo], Re_all[k - lo],
-                  want_matrix)
-
-
-@njit(cache=True)
 def add_local(data, rhs, row_base, row_len, start, ndof, nodes, pos, Ke, Re, want_matrix):
     """Add one local matrix/vector (rows node-major, ``ndof`` components per node).
 
@@ -220,6 +160,34 @@ def add_local(data, rhs, row_base, row_len, start, ndof, nodes, pos, Ke, Re, wan
                     for c2 in range(ndb):
                         data[off + c2] += Ke[ri + c, ci + c2]
                     ci += ndb
+        ri += nda
+
+
+@njit(cache=True)
+def add_local_componentwise(data, rhs, row_base, row_len, start, ndof, nodes, pos, Ke, Re, want_matrix):
+    """As :func:`add_local` for a local matrix that couples only equal components of two nodes
+    (every node-pair block diagonal: the CIP / ghost-penalty terms on faces parallel to an
+    axis). The other entries, zero, are not added: a third of the memory traffic for three
+    components per node."""
+    m = len(nodes)
+    ri = 0
+    for i in range(m):
+        a = nodes[i]
+        if a < 0:
+            continue
+        nda = ndof[a]
+        for c in range(nda):
+            rhs[start[a] + c] += Re[ri + c]
+        if want_matrix:
+            ci = 0
+            for j in range(m):
+                b = nodes[j]
+                if b < 0:
+                    continue
+                off = row_base[a] + pos[i, j]
+                for c in range(min(nda, ndof[b])):
+                    data[off + c * row_len[a] + c] += Ke[ri + c, ci + c]
+                ci += ndof[b]
         ri += nda
 
 

@@ -31,10 +31,10 @@ problems), so the face terms are linear and their Jacobian is exact.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from fsci.fem.q1 import q1_shape
-from fsci.fem.sparse import LOCAL_CHUNK, add_local_componentwise, add_locals, block_range, n_blocks
+from fsci.fem.sparse import add_local, add_local_componentwise
 
 # indices into the parameter vector of the cell kernel (N_CELL_PARAMETERS entries)
 P_RHO, P_MU, P_SYM, P_MASS, P_THETA, P_RESIDUAL = range(6)
@@ -202,7 +202,7 @@ def cell_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, go, prm, b0, b1, sp, out)
     return v0, v1, p
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def assemble_fluid_cells(xs, ys, nx, conn, cell_ids, qptr, qx, qw, bq, V, P, Vo, Vbar, prm,
                          gnode, pos, data, rhs, row_base, row_len, start, ndof, want_matrix):
     """Add the cell terms (:func:`cell_density`) for the integration parts ``k``: background
@@ -211,27 +211,8 @@ def assemble_fluid_cells(xs, ys, nx, conn, cell_ids, qptr, qx, qw, bq, V, P, Vo,
     ``qx[qptr[k]:qptr[k+1]]`` are the physical quadrature points of part ``k`` with
     weights ``qw`` and body force density ``bq`` (already multiplied by rho and time-weighted).
     ``V, P`` are the current and ``Vo`` the previous velocity on all virtual nodes, ``Vbar``
-    the frozen stabilisation velocity. The parts' local terms are computed in parallel
-    (numba threads) and added in part order (:func:`fsci.fem.sparse.add_locals`).
+    the frozen stabilisation velocity.
     """
-    n = len(cell_ids)
-    chunk = max(min(n, LOCAL_CHUNK), 1)
-    Ke_all = np.empty((chunk, 12, 12))
-    Re_all = np.empty((chunk, 12))
-    for lo in range(0, n, chunk):
-        hi = min(n, lo + chunk)
-        for t in prange(n_blocks(lo, hi)):
-            k0, k1 = block_range(lo, hi, t)
-            _cells_local(k0, k1, lo, xs, ys, nx, conn, cell_ids, qptr, qx, qw, bq, V, P, Vo, Vbar, prm,
-                         want_matrix, Ke_all, Re_all)
-        add_locals(conn, gnode, pos, lo, hi, Ke_all, Re_all, data, rhs, row_base, row_len, start, ndof,
-                   want_matrix)
-
-
-@njit(cache=True)
-def _cells_local(k0, k1, lo, xs, ys, nx, conn, cell_ids, qptr, qx, qw, bq, V, P, Vo, Vbar, prm, want_matrix,
-                 Ke_all, Re_all):
-    """Local matrix ``Ke_all[k - lo]`` and vector ``Re_all[k - lo]`` of the parts ``k0 <= k < k1``."""
     rho = prm[P_RHO]
     mu = prm[P_MU]
     sym = prm[P_SYM]
@@ -241,6 +222,9 @@ def _cells_local(k0, k1, lo, xs, ys, nx, conn, cell_ids, qptr, qx, qw, bq, V, P,
     N = np.empty(4)
     dN = np.empty((4, 2))
     dNx = np.empty((4, 2))
+    Ke = np.empty((12, 12))
+    Re = np.empty(12)
+    nodes = np.empty(4, dtype=np.int64)
     Ve = np.empty((4, 2))
     Voe = np.empty((4, 2))
     Vbe = np.empty((4, 2))
@@ -250,14 +234,13 @@ def _cells_local(k0, k1, lo, xs, ys, nx, conn, cell_ids, qptr, qx, qw, bq, V, P,
     dens = np.empty(12)
     sp = np.zeros(4)
     dR = np.empty((2, 12))  # derivative of the strong momentum residual by the 12 cell unknowns
-    for k in range(k0, k1):
-        Ke = Ke_all[k - lo]
-        Re = Re_all[k - lo]
+    for k in range(len(cell_ids)):
         c = cell_ids[k]
         x0, y0, hx, hy = _cell_geometry(xs, ys, nx, c)
         dxy = 1.0 / (hx * hy)
         for a in range(4):
             n = conn[k, a]
+            nodes[a] = gnode[n]
             Ve[a, 0] = V[n, 0]
             Ve[a, 1] = V[n, 1]
             Voe[a, 0] = Vo[n, 0]
@@ -317,6 +300,7 @@ def _cells_local(k0, k1, lo, xs, ys, nx, conn, cell_ids, qptr, qx, qw, bq, V, P,
                                 )
                             Ke[ra + i, cb + 2] -= w * N[b] * dNx[a, i]
                             Ke[ra + 2, cb + i] += w * dNx[b, i] * N[a]
+        add_local(data, rhs, row_base, row_len, start, ndof, nodes, pos[k], Ke, Re, want_matrix)
 
 
 @njit(cache=True, inline="always")
