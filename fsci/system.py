@@ -228,7 +228,12 @@ class System:
         if self._motion_since_cut() <= st.eps_geom and not self._drop_kept:
             return False
         grow_only = it > st.grow_only_after or self.layout_changes >= st.max_layout_changes
-        keep = self._step_active if grow_only and not self._drop_kept else None
+        # the nodes that stay ACTIVE: in a time step those of all the step's cuts; in steady flow
+        # those of the last cut (a state holding kept nodes is solved again without them,
+        # decision 41, and the smaller set needs fewer iterations to that)
+        keep = None
+        if grow_only and not self._drop_kept:
+            keep = self.fluid.node_active.copy() if self.ctx.static else self._step_active
         pieces = len(self.cut.pieces)
         changed = self.update_cut(keep_nodes=keep)
         if self._drop_kept:
