@@ -104,10 +104,10 @@ def test_fsi1_refined_grid_is_independent_of_the_grid_position():
 @pytest.mark.slow  # two runs of about 10 s
 def test_fsi1_steady_state_does_not_depend_on_the_load_path():
     """FSI1 on a coarse grid (m = 6, 140 × 8 cells) in one load step and in two: ux(A), uy(A),
-    drag and lift agree to 1e-8 relative. In one step, grow-only re-cuts keep ACTIVE nodes of
-    the region the bar swept, whose CIP / ghost-penalty faces reach into the bar; a state
-    converged with them is solved again without them (decision 41). Before, one load step
-    gave uy(A) 1.0 % below two steps (8.842e-4 against 8.935e-4)."""
+    drag and lift agree to 1e-8 relative. In one step, a grow-only re-cut keeps ACTIVE a node
+    the bar covered again, whose CIP / ghost-penalty faces reach into the bar; the state
+    converged with it is solved again without it (decision 41). Before, one load step gave
+    uy(A) 1.0 % below two steps (8.842e-4 against 8.935e-4)."""
     from fsci.config import apply_override, problem_from_dict
     from fsci.simulation import Simulation
 
