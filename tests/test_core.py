@@ -11,7 +11,7 @@ import pytest
 from fsci.errors import InputError, MeshError
 from fsci.expressions import Expression
 from fsci.fem.quadrature import gauss_line, gauss_quad, gauss_triangle, triangle_rule
-from fsci.fem.sparse import DofLayout, Pattern, add_local
+from fsci.fem.sparse import DofLayout, Pattern, add_local, add_local_componentwise
 from fsci.mesh import generate
 from fsci.mesh.gmsh_io import initialize_gmsh, mesh_outline, read_msh
 from fsci.mesh.quadmesh import QuadMesh
@@ -70,6 +70,31 @@ def test_pattern_assembly_equals_dense_assembly():
     assert np.allclose(rhs, dense_rhs)
     diag = pat.diagonal_positions()
     assert np.array_equal(pat.indices[diag], np.arange(lay.n_dofs))
+
+
+def test_componentwise_assembly_equals_full_assembly_of_block_diagonal_locals():
+    """Element matrices whose node-pair blocks are diagonal (the faces' CIP / ghost penalty)
+    over 3-dof nodes: adding only the diagonal entries gives the matrix and residual that
+    :func:`add_local` gives from the whole block; a local matrix with an off-diagonal entry
+    does not (the shortcut is only for the matrices it is documented for)."""
+    rng = np.random.default_rng(1)
+    lay = DofLayout(np.full(10, 3))
+    conn = np.array([rng.choice(10, size=6, replace=False) for _ in range(8)])
+    conn[2, 4] = -1  # a slot without dofs is skipped
+    pat = Pattern(lay, [conn])
+    pos = pat.positions(conn)
+    full, part = (np.zeros(pat.nnz), np.zeros(lay.n_dofs)), (np.zeros(pat.nnz), np.zeros(lay.n_dofs))
+    for e, nodes in enumerate(conn):
+        m = int(np.count_nonzero(nodes >= 0))
+        K = np.kron(rng.standard_normal((m, m)), np.ones((3, 3))) * np.kron(np.ones((m, m)), np.eye(3))
+        R = rng.standard_normal(3 * m)
+        add_local(*full, pat.row_base, pat.row_len, lay.start, lay.ndof, nodes, pos[e], K, R, True)
+        add_local_componentwise(*part, pat.row_base, pat.row_len, lay.start, lay.ndof, nodes, pos[e], K, R, True)
+    assert np.array_equal(full[0], part[0]) and np.array_equal(full[1], part[1])
+    K[0, 1] = 1.0  # a coupling of two components: left out
+    add_local(*full, pat.row_base, pat.row_len, lay.start, lay.ndof, conn[-1], pos[-1], K, R, True)
+    add_local_componentwise(*part, pat.row_base, pat.row_len, lay.start, lay.ndof, conn[-1], pos[-1], K, R, True)
+    assert not np.allclose(full[0], part[0])
 
 
 def test_structured_and_graded_meshes():
