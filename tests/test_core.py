@@ -11,7 +11,7 @@ import pytest
 from fsci.errors import InputError, MeshError
 from fsci.expressions import Expression
 from fsci.fem.quadrature import gauss_line, gauss_quad, gauss_triangle, triangle_rule
-from fsci.fem.sparse import DofLayout, Pattern, add_local, add_local_componentwise
+from fsci.fem.sparse import DofLayout, Pattern, add_local
 from fsci.mesh import generate
 from fsci.mesh.gmsh_io import initialize_gmsh, mesh_outline, read_msh
 from fsci.mesh.quadmesh import QuadMesh
@@ -72,7 +72,7 @@ def test_pattern_assembly_equals_dense_assembly():
     assert np.array_equal(pat.indices[diag], np.arange(lay.n_dofs))
 
 
-def test_componentwise_assembly_equals_full_assembly_of_block_diagonal_locals():
+def test_diagonal_block_assembly_equals_full_assembly_of_block_diagonal_locals():
     """Element matrices whose node-pair blocks are diagonal (the faces' CIP / ghost penalty)
     over 3-dof nodes: adding only the diagonal entries gives the matrix and residual that
     :func:`add_local` gives from the whole block; a local matrix with an off-diagonal entry
@@ -89,11 +89,11 @@ def test_componentwise_assembly_equals_full_assembly_of_block_diagonal_locals():
         K = np.kron(rng.standard_normal((m, m)), np.ones((3, 3))) * np.kron(np.ones((m, m)), np.eye(3))
         R = rng.standard_normal(3 * m)
         add_local(*full, pat.row_base, pat.row_len, lay.start, lay.ndof, nodes, pos[e], K, R, True)
-        add_local_componentwise(*part, pat.row_base, pat.row_len, lay.start, lay.ndof, nodes, pos[e], K, R, True)
+        add_local(*part, pat.row_base, pat.row_len, lay.start, lay.ndof, nodes, pos[e], K, R, True, True)
     assert np.array_equal(full[0], part[0]) and np.array_equal(full[1], part[1])
     K[0, 1] = 1.0  # a coupling of two components: left out
     add_local(*full, pat.row_base, pat.row_len, lay.start, lay.ndof, conn[-1], pos[-1], K, R, True)
-    add_local_componentwise(*part, pat.row_base, pat.row_len, lay.start, lay.ndof, conn[-1], pos[-1], K, R, True)
+    add_local(*part, pat.row_base, pat.row_len, lay.start, lay.ndof, conn[-1], pos[-1], K, R, True, True)
     assert not np.allclose(full[0], part[0])
 
 

@@ -134,10 +134,13 @@ def _positions(conn, nptr, nbr, col_off):
 
 
 @njit(cache=True)
-def add_local(data, rhs, row_base, row_len, start, ndof, nodes, pos, Ke, Re, want_matrix):
+def add_local(data, rhs, row_base, row_len, start, ndof, nodes, pos, Ke, Re, want_matrix, diagonal_blocks=False):
     """Add one local matrix/vector (rows node-major, ``ndof`` components per node).
 
-    ``nodes[i] < 0`` marks a slot without dofs (skipped)."""
+    ``nodes[i] < 0`` marks a slot without dofs (skipped). ``diagonal_blocks``: the local matrix
+    couples only equal components of two nodes (the CIP / ghost-penalty terms on faces parallel
+    to an axis), and only those entries are added: a third of the memory traffic for three
+    components per node."""
     m = len(nodes)
     ri = 0
     for i in range(m):
@@ -157,37 +160,10 @@ def add_local(data, rhs, row_base, row_len, start, ndof, nodes, pos, Ke, Re, wan
                         continue
                     ndb = ndof[b]
                     off = base + pos[i, j]
-                    for c2 in range(ndb):
+                    lo, hi = (c, min(c + 1, ndb)) if diagonal_blocks else (0, ndb)
+                    for c2 in range(lo, hi):
                         data[off + c2] += Ke[ri + c, ci + c2]
                     ci += ndb
-        ri += nda
-
-
-@njit(cache=True)
-def add_local_componentwise(data, rhs, row_base, row_len, start, ndof, nodes, pos, Ke, Re, want_matrix):
-    """As :func:`add_local` for a local matrix that couples only equal components of two nodes
-    (every node-pair block diagonal: the CIP / ghost-penalty terms on faces parallel to an
-    axis). The other entries, zero, are not added: a third of the memory traffic for three
-    components per node."""
-    m = len(nodes)
-    ri = 0
-    for i in range(m):
-        a = nodes[i]
-        if a < 0:
-            continue
-        nda = ndof[a]
-        for c in range(nda):
-            rhs[start[a] + c] += Re[ri + c]
-        if want_matrix:
-            ci = 0
-            for j in range(m):
-                b = nodes[j]
-                if b < 0:
-                    continue
-                off = row_base[a] + pos[i, j]
-                for c in range(min(nda, ndof[b])):
-                    data[off + c * row_len[a] + c] += Ke[ri + c, ci + c]
-                ci += ndof[b]
         ri += nda
 
 

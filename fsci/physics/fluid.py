@@ -34,7 +34,7 @@ import numpy as np
 from numba import njit
 
 from fsci.fem.q1 import q1_shape
-from fsci.fem.sparse import add_local, add_local_componentwise
+from fsci.fem.sparse import add_local
 
 # indices into the parameter vector of the cell kernel (N_CELL_PARAMETERS entries)
 P_RHO, P_MU, P_SYM, P_MASS, P_THETA, P_RESIDUAL = range(6)
@@ -412,4 +412,4 @@ def assemble_fluid_faces(xs, ys, nx, fnodes, faces, ghost_weight, Vbar, V, P, pr
                         Ke[3 * a + 1, 3 * b + 1] += jj * (tau_v + tau_div * nvec1 * nvec1)
                         Ke[3 * a + 2, 3 * b + 2] += jj * tau_p
         # n = (1, 0) or (0, 1): the n-n coupling of the divergence jump is within a component
-        add_local_componentwise(data, rhs, row_base, row_len, start, ndof, nodes, pos[f], Ke, Re, want_matrix)
+        add_local(data, rhs, row_base, row_len, start, ndof, nodes, pos[f], Ke, Re, want_matrix, True)
