@@ -33,6 +33,11 @@ class InputError(ValueError):
             text = text[:MAX_VALUE_TEXT - 3] + "..."
         super().__init__(f"{field} = {text}: {allowed}")
 
+    def __reduce__(self):
+        # rebuilt from the three parts (the default would pass the message as ``field`` alone),
+        # so that the error survives pickling, e.g. out of the meshing process
+        return type(self), (self.field, self.value, self.allowed)
+
 
 class SolverError(RuntimeError):
     """A nonlinear or linear solve failed (the time loop may retry with a smaller step)."""
