@@ -88,6 +88,53 @@ def test_coupling_jacobian_in_every_case(variant, scheme):
     check_jacobian(system, ctx, x0, h=1e-7, label=f"FSCI {variant} {scheme}")
 
 
+def test_fluid_columns_by_differences_equal_the_complex_step(monkeypatch):
+    """The coupling kernel takes the Jacobian columns of the fluid unknowns as real differences
+    of step ``AFFINE_STEP`` with the case of every point fixed (the residual is affine in them),
+    the others by complex step. In the state with points in every case I-IV, the extension and
+    the slip law, every such column must equal the complex step's to 1e-13 of its largest
+    entry (measured 2e-15; a unit step gives 1.6e-11 here, a term nonlinear in a fluid value far
+    more)."""
+    system, ctx, x0 = two_bodies_in_fluid("remark6")
+    system.scatter(x0)
+    captured = {}
+    real_assemble = tk.assemble_pieces
+
+    def capture(*args):
+        captured["args"] = args
+        return real_assemble(*args)
+
+    monkeypatch.setattr(tk, "assemble_pieces", capture)
+    system.assemble(ctx, want_matrix=True)
+    (z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_all, vq_all, kap_all, Xe_all, We_all, vqe_all,
+     Vo_all, Vb_all, bq_all, fprm, _shape, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw, conn, *_rest,
+     out_all) = captured["args"]
+    n = len(ip_all)
+    R_all, K_all = np.zeros((n, tk.N_LOCAL)), np.zeros((n, tk.N_LOCAL, tk.N_LOCAL))
+    used = np.zeros(n, dtype=np.bool_)
+    tk._piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_all, vq_all, kap_all, Xe_all,
+                     We_all, vqe_all, Vo_all, Vb_all, bq_all, fprm, False, mu, sym, sadj, variant33, w_p, w_t, w_c,
+                     gp, gw, conn, True, out_all, R_all, K_all, used)
+    slot_of = np.repeat(np.arange(tk.N_SLOTS), tk._SLOT_NDOF)
+    worst, columns = 0.0, 0
+    rc, dummy = np.empty(tk.N_LOCAL, dtype=complex), np.empty((len(gp), tk.N_OUT))
+    for k in np.nonzero(used)[0]:
+        for j in range(tk.OFF_CELL, tk.OFF_EDGE):
+            if conn[k, slot_of[j]] < 0:
+                continue
+            zc = z_all[k].astype(complex)
+            zc[j] += 1j * tk.CS_STEP
+            tk.piece_residual(zc, rc, dummy, ip_all[k], fp_all[k], Xo_all[k], prmo_all[k], Xm_all[k], prmm_all[k],
+                              W_all[k], vq_all[k], kap_all[k], Xe_all[k], We_all[k], vqe_all[k], mu, sym, sadj,
+                              variant33, w_p, w_t, w_c, gp, gw, np.empty(0, dtype=np.int64))
+            exact = rc.imag / tk.CS_STEP
+            if np.any(exact != 0.0):
+                worst = max(worst, float(np.max(np.abs(K_all[k, :, j] - exact)) / np.max(np.abs(exact))))
+                columns += 1
+    assert columns > 100, columns
+    assert worst < 1e-13, worst
+
+
 def test_coupling_jacobian_with_the_cut_following_in_contact():
     """The state of :func:`test_coupling_jacobian_in_every_case` with the cut rebuilt for every
     difference and the shape derivative in the Jacobian, as Newton sees it while the cut
