@@ -482,15 +482,20 @@ def assemble_pieces(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W
     rows and columns are compacted to the present slots before :func:`add_local`. The pieces
     are evaluated in parallel (numba threads, :func:`_piece_locals`) and added to the global
     arrays one after the other in piece order (:func:`_add_pieces`), so the sums do not depend
-    on the number of threads."""
+    on the number of threads. The local Jacobians are kept compacted (``m × m`` for the ``m``
+    unknowns of a piece's present slots, one after the other in ``K_live``): a full ``N_LOCAL²``
+    block per piece was 8 times the memory, written and read again in every assembly."""
     n = len(ip_all)
     R_all = np.zeros((n, N_LOCAL))
-    K_all = np.zeros((n, N_LOCAL, N_LOCAL) if want_matrix else (0, N_LOCAL, N_LOCAL))
+    sizes = _live_counts(conn) ** 2 if want_matrix else np.zeros(n, dtype=np.int64)
+    k_off = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(sizes, out=k_off[1:])
+    K_live = np.empty(k_off[-1])
     used = np.zeros(n, dtype=np.bool_)
     try:
         _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_all, vq_all, kap_all, Xe_all,
                       We_all, vqe_all, Vo_all, Vb_all, bq_all, fprm, shape, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw,
-                      conn, want_matrix, out_all, R_all, K_all, used)
+                      conn, want_matrix, out_all, R_all, K_live, k_off, used)
     except SystemError as exc:
         # numba passes an exception of a parallel worker on as SystemError with the original as
         # its context: an arithmetic failure is an iterate the model cannot evaluate, and Newton
@@ -498,7 +503,18 @@ def assemble_pieces(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W
         if isinstance(exc.__context__, ArithmeticError):
             raise exc.__context__ from None
         raise
-    _add_pieces(conn, pos, R_all, K_all, used, data, rhs, row_base, row_len, start, ndof, want_matrix)
+    _add_pieces(conn, pos, R_all, K_live, k_off, used, data, rhs, row_base, row_len, start, ndof, want_matrix)
+
+
+@njit(cache=True)
+def _live_counts(conn):
+    """Number of local unknowns of the present slots of every piece."""
+    out = np.zeros(conn.shape[0], dtype=np.int64)
+    for k in range(conn.shape[0]):
+        for slot in range(N_SLOTS):
+            if conn[k, slot] >= 0:
+                out[k] += _SLOT_NDOF[slot]
+    return out
 
 
 @njit(cache=True)
@@ -516,9 +532,10 @@ def _live_columns(conn_k, idx):
 @njit(cache=True, parallel=True)
 def _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_all, vq_all, kap_all, Xe_all,
                   We_all, vqe_all, Vo_all, Vb_all, bq_all, fprm, shape, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw,
-                  conn, want_matrix, out_all, R_all, K_all, used):
-    """Residual ``R_all[k]`` and full local Jacobian ``K_all[k]`` (N_LOCAL × N_LOCAL, columns of
-    absent slots zero) of every piece; ``used[k]`` False for a piece that contributes nothing."""
+                  conn, want_matrix, out_all, R_all, K_live, k_off, used):
+    """Residual ``R_all[k]`` and the local Jacobian of every piece, compacted to the unknowns of
+    its present slots (row-major into ``K_live[k_off[k]:k_off[k + 1]]``); ``used[k]`` False for a
+    piece that contributes nothing."""
     for k in prange(len(ip_all)):
         z = z_all[k]
         r = np.empty(N_LOCAL)
@@ -540,7 +557,7 @@ def _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_a
             cases = np.empty(len(gp), dtype=np.int64)
             for g in range(len(gp)):
                 cases[g] = int(out[g, O_CASE])
-            Kf = K_all[k]
+            Kf = np.empty((N_LOCAL, N_LOCAL))  # every column of a present slot is filled below
             for jj in range(m):
                 j = idx[jj]
                 if OFF_CELL <= j < OFF_EDGE:
@@ -569,22 +586,23 @@ def _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_a
             if shape:
                 add_bulk_shape_derivative(Kf, z, ip_all[k], fp_all[k], Xo_all[k], Xm_all[k], Xe_all[k], Vo_all[k],
                                           Vb_all[k], bq_all[k], fprm, gp, gw)
+            Kc = K_live[k_off[k]:k_off[k + 1]]
+            for ii in range(m):
+                for jj in range(m):
+                    Kc[ii * m + jj] = Kf[idx[ii], idx[jj]]
 
 
 @njit(cache=True)
-def _add_pieces(conn, pos, R_all, K_all, used, data, rhs, row_base, row_len, start, ndof, want_matrix):
-    """Add the local residuals and Jacobians, compacted to the present slots, piece by piece."""
+def _add_pieces(conn, pos, R_all, K_live, k_off, used, data, rhs, row_base, row_len, start, ndof, want_matrix):
+    """Add the local residuals and (compacted) Jacobians piece by piece."""
     idx = np.empty(N_LOCAL, dtype=np.int64)
+    none = np.zeros((0, 0))
     for k in range(len(used)):
         if not used[k]:
             continue
         m = _live_columns(conn[k], idx)
         Re = np.empty(m)
-        Ke = np.zeros((m, m))
         for i in range(m):
             Re[i] = R_all[k, idx[i]]
-        if want_matrix:
-            for ii in range(m):
-                for jj in range(m):
-                    Ke[ii, jj] = K_all[k, idx[ii], idx[jj]]
+        Ke = K_live[k_off[k]:k_off[k + 1]].reshape((m, m)) if want_matrix else none
         add_local(data, rhs, row_base, row_len, start, ndof, conn[k], pos[k], Ke, Re, want_matrix)
