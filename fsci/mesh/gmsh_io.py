@@ -161,16 +161,16 @@ def mesh_outline(loops: Sequence[Sequence[Mapping[str, Any]]], h: float, *, h_ma
     if not loops:
         raise InputError("loops", loops, "at least one closed loop")
     _check_loops(loops)
-    nodes_all, cells, edge_sets = _in_clean_process(_generate, loops, h, h_max, refine, algorithm)
+    nodes_all, cells, edge_sets = _in_clean_process(loops, h, h_max, refine, algorithm)
     return _compact(nodes_all, cells, edge_sets)
 
 
-def _in_clean_process(func, *args):
-    """``func(*args)`` evaluated in a fresh Python interpreter with ``PYTHONHASHSEED=0`` (see the
-    module docstring: gmsh's result depended on the heap of the calling process). ``func`` must be
-    a module-level function of this module; arguments and result travel pickled through the
-    child's standard streams, an exception raised in the child is raised here."""
-    job = pickle.dumps((func.__name__, args))
+def _in_clean_process(*args):
+    """:func:`_generate` of ``args`` in a fresh Python interpreter with ``PYTHONHASHSEED=0`` (see
+    the module docstring: gmsh's result depended on the heap of the calling process). Arguments
+    and result travel pickled through the child's standard streams; an exception raised in the
+    child is raised here."""
+    job = pickle.dumps(args)
     env = dict(os.environ, PYTHONHASHSEED="0")
     code = "from fsci.mesh.gmsh_io import _child_main; _child_main()"
     done = subprocess.run([sys.executable, "-c", code], input=job, capture_output=True, env=env)
@@ -188,9 +188,9 @@ def _in_clean_process(func, *args):
 def _child_main() -> None:
     """Entry point of the child of :func:`_in_clean_process`: read the job from stdin, write
     ``(True, result)`` or ``(False, exception)`` to stdout."""
-    name, args = pickle.loads(sys.stdin.buffer.read())
+    args = pickle.loads(sys.stdin.buffer.read())
     try:
-        answer = (True, globals()[name](*args))
+        answer = (True, _generate(*args))
     except Exception as exc:  # handed to the parent, which raises it
         answer = (False, exc)
     sys.stdout.buffer.write(pickle.dumps(answer))
