@@ -143,8 +143,7 @@ class System:
         return self.stab_change <= tol
 
     def _smallest_cell_side(self) -> float:
-        g = self.fluid.grid
-        return min(float(np.diff(g.xs).min()), float(np.diff(g.ys).min()))
+        return self.fluid.grid.h_min
 
     def _motion_since_cut(self) -> float:
         """Largest body displacement since the last cut, in units of the smallest cell side."""

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fsci.cut.state import MOVING_ENDS
+from fsci.cut.state import is_moving_end
 from fsci.geometry.search import Surface, find_pieces
 
 
@@ -220,7 +220,7 @@ def build_pieces(boundaries: list[BoundaryOf], cut, radius: float, self_contact:
         scale = 1.0 + float(np.max(np.abs(bd.x))) if len(bd.x) else 1.0
         ext = _extension(bd.x, bd.edges, rows[:, [0, 1, 2, 3, 4, 7, 8, 5, 6]], scale) if cut is not None and extension \
             else np.full((len(rows), 5), -1.0)
-        ext[:, 3] = np.where(np.isin(ext[:, 3], MOVING_ENDS), ext[:, 3], -1)
+        ext[:, 3] = np.where(is_moving_end(ext[:, 3]), ext[:, 3], -1)
         fs = rows[:, 8] > 0
         has_opp = rows[:, 9] >= 0
         keep = fs | has_opp | (ext[:, 0] >= 0)

@@ -33,7 +33,7 @@ from numba import njit
 from fsci.assembly import Assembly, ResidualAssembly
 from fsci.coupling import traction as tk
 from fsci.coupling.points import BoundaryOf, CouplingPieces, build_pieces
-from fsci.cut.state import MOVING_ENDS
+from fsci.cut.state import is_moving_end
 from fsci.cut.transfer import transfer_indices
 from fsci.errors import InputError
 from fsci.expressions import Expression
@@ -558,7 +558,7 @@ class CouplingTerm:
         the edge's index among all bodies' boundary edges, in the cut's order): reference
         coordinates into ``Xe[:, 2:8]``, local unknowns from ``OFF_END``, global nodes into
         slots 18-23."""
-        ends = [np.nonzero(np.isin(d, MOVING_ENDS))[0] for d in (pc.d0, pc.d1, pc.ext_d)]
+        ends = [np.nonzero(is_moving_end(d))[0] for d in (pc.d0, pc.d1, pc.ext_d)]
         if system.cut is None or not any(len(e) for e in ends):
             return
         edges = [s.mesh.boundary.edges for s in system.solids]

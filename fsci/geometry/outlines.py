@@ -9,7 +9,7 @@ body is declared to cross it), and a warning for bodies thinner than a fluid cel
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
@@ -28,12 +28,16 @@ class Outline:
     edges: np.ndarray  # coupling-interface edges Γ (k, 2), cell on the left
     polygon: shapely.Geometry  # the region the body takes from the fluid (with dry cavities: included)
     all_edges: np.ndarray  # every boundary edge (for events between bodies)
+    _normals: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
 
     def normals(self) -> np.ndarray:
-        """Outward unit normals of the interface edges, ``(k, 2)``."""
-        d = self.x[self.edges[:, 1]] - self.x[self.edges[:, 0]]
-        L = np.linalg.norm(d, axis=1)
-        return np.column_stack([d[:, 1], -d[:, 0]]) / L[:, None]
+        """Outward unit normals of the interface edges, ``(k, 2)`` (computed once: an outline
+        is the geometry of one iterate and is not changed)."""
+        if self._normals is None:
+            d = self.x[self.edges[:, 1]] - self.x[self.edges[:, 0]]
+            L = np.linalg.norm(d, axis=1)
+            self._normals = np.column_stack([d[:, 1], -d[:, 0]]) / L[:, None]
+        return self._normals
 
 
 def body_polygon(x: np.ndarray, loops: list[np.ndarray], name: str, dry_cavities: bool = False) -> shapely.Geometry:

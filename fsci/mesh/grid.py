@@ -72,6 +72,11 @@ class Grid:
         return np.column_stack([np.diff(self.xs)[ij[:, 0]], np.diff(self.ys)[ij[:, 1]]])
 
     @cached_property
+    def h_min(self) -> float:
+        """Smallest cell side (the unit of the cut's geometric tolerances)."""
+        return float(min(np.diff(self.xs).min(), np.diff(self.ys).min()))
+
+    @cached_property
     def h_max(self) -> float:
         """Largest cell diagonal / sqrt(2) (the element size used by the slip-length law)."""
         return float(np.max(np.hypot(*self.cell_size.T)) / np.sqrt(2.0))
@@ -113,6 +118,7 @@ class Grid:
     def locate(self, points: np.ndarray) -> np.ndarray:
         """Cell id containing each point ``(k, 2)`` (clipped to the grid)."""
         p = np.atleast_2d(points)
-        i = np.clip(np.searchsorted(self.xs, p[:, 0], side="right") - 1, 0, self.nx - 1)
-        j = np.clip(np.searchsorted(self.ys, p[:, 1], side="right") - 1, 0, self.ny - 1)
+        # (minimum / maximum: half the time of np.clip on the few points of most calls)
+        i = np.minimum(np.maximum(np.searchsorted(self.xs, p[:, 0], side="right") - 1, 0), self.nx - 1)
+        j = np.minimum(np.maximum(np.searchsorted(self.ys, p[:, 1], side="right") - 1, 0), self.ny - 1)
         return j * self.nx + i
