@@ -105,7 +105,7 @@ def _search(boundaries: list[BoundaryOf], radius: float, self_contact: bool, spl
     return out
 
 
-def _merge(base: tuple[np.ndarray, ...], contact: tuple[np.ndarray, ...] | None) -> list[tuple]:
+def _merge(base: tuple[np.ndarray, ...], contact: tuple[np.ndarray, ...] | None) -> np.ndarray:
     """Split the base pieces of one body at the ends of its contact pieces and attach the
     opposite segment covering each sub-piece. Rows: (edge, s0, s1, d0, d1, c0, c1, cell, fs,
     opposite body, opposite edge, end body, end edge).
@@ -117,17 +117,20 @@ def _merge(base: tuple[np.ndarray, ...], contact: tuple[np.ndarray, ...] | None)
     (46)), and the Jacobian has the motion of the split, across which the traction can jump
     (the slip law (40) of a gap on one side, none on the other)."""
     e, s0, s1, k0, l0, k1, l1, cell, fs = base
-    rows = []
+    none = np.full(len(e), -1.0)
+    plain = np.column_stack([e, s0, s1, k0, k1, l0, l1, cell, fs, none, none, none, none]).astype(float)
+    if contact is None:  # every piece as it is
+        return plain
     by_edge: dict[int, list[int]] = {}
-    if contact is not None:
-        ce, ob, oe, c0, c1, cd0, cd1 = contact
-        for j in range(len(ce)):
-            by_edge.setdefault(int(ce[j]), []).append(j)
-    for k in range(len(e)):
-        cand = by_edge.get(int(e[k]))
-        if not cand:
-            rows.append((e[k], s0[k], s1[k], k0[k], k1[k], l0[k], l1[k], cell[k], fs[k], -1, -1, -1, -1))
-            continue
+    ce, ob, oe, c0, c1, cd0, cd1 = contact
+    for j in range(len(ce)):
+        by_edge.setdefault(int(ce[j]), []).append(j)
+    blocks, start = [], 0  # runs of pieces without contact kept as they are, in order
+    for k in np.nonzero(np.isin(e, ce))[0].tolist():
+        blocks.append(plain[start:k])
+        start = k + 1
+        cand = by_edge[int(e[k])]
+        rows = []
         cuts = np.unique([s0[k], s1[k]] + [v for j in cand for v in (c0[j], c1[j]) if s0[k] < v < s1[k]])
         for lo, hi in zip(cuts[:-1], cuts[1:]):
             if hi - lo <= 1e-13:
@@ -157,7 +160,9 @@ def _merge(base: tuple[np.ndarray, ...], contact: tuple[np.ndarray, ...] | None)
                         geo, dh = nb[0], cd0[nb[0]]
             rows.append((e[k], lo, hi, dl, dh, cl, ch, cell[k], fs[k], ob[j] if j >= 0 else -1,
                          oe[j] if j >= 0 else -1, ob[geo] if geo >= 0 else -1, oe[geo] if geo >= 0 else -1))
-    return rows
+        blocks.append(np.array(rows, dtype=float).reshape(-1, 13))
+    blocks.append(plain[start:])
+    return np.vstack(blocks)
 
 
 def _extension(x: np.ndarray, edges: np.ndarray, rows: np.ndarray, scale: float) -> np.ndarray:
@@ -216,7 +221,7 @@ def build_pieces(boundaries: list[BoundaryOf], cut, radius: float, self_contact:
     contact = _search(boundaries, radius, self_contact, split, n_fixed)
     cols = []
     for b, bd in enumerate(boundaries):
-        rows = np.array(_merge(base[b], contact.get(b)), dtype=float).reshape(-1, 13)
+        rows = _merge(base[b], contact.get(b))
         scale = 1.0 + float(np.max(np.abs(bd.x))) if len(bd.x) else 1.0
         ext = _extension(bd.x, bd.edges, rows[:, [0, 1, 2, 3, 4, 7, 8, 5, 6]], scale) if cut is not None and extension \
             else np.full((len(rows), 5), -1.0)

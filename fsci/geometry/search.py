@@ -123,6 +123,11 @@ def _seen_through(so: Surface, edge: np.ndarray, A: np.ndarray, B: np.ndarray, s
     return out
 
 
+def _boxes_meet(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> bool:
+    """Whether two closed boxes ``(lower corner, upper corner)`` intersect."""
+    return bool(np.all(a[0] <= b[1]) and np.all(b[0] <= a[1]))
+
+
 def find_pieces(surfaces: list[Surface], own: int, radius: float, self_contact: bool = False,
                 split: bool = True, n_fixed: int = 10) -> Pieces:
     """Contact pieces of surface ``own`` against all other surfaces (and itself if
@@ -133,11 +138,15 @@ def find_pieces(surfaces: list[Surface], own: int, radius: float, self_contact: 
     B = so.x[so.edges[:, 1]]
     n_own = so.normals()
     rows = []
+    reach = (np.minimum(A, B).min(axis=0, initial=np.inf) - radius, np.maximum(A, B).max(axis=0, initial=-np.inf) + radius)
     for k, sf in enumerate(surfaces):
         if k == own and not self_contact:
             continue
         P = sf.x[sf.edges[:, 0]]
         Q = sf.x[sf.edges[:, 1]]
+        if k != own and not _boxes_meet(reach, (np.minimum(P, Q).min(axis=0, initial=np.inf),
+                                                np.maximum(P, Q).max(axis=0, initial=-np.inf))):
+            continue  # out of reach as a whole (the tree's query would find nothing)
         tree = shapely.STRtree(shapely.linestrings(np.stack([P, Q], axis=1)))
         lo = np.minimum(A, B) - radius
         hi = np.maximum(A, B) + radius
