@@ -54,6 +54,7 @@ class CouplingPieces:
     ext_cell: np.ndarray  # fluid part on the fluid side of the extension point
     ext_d: np.ndarray  # its descriptor: 4-6 where it lies on another body's edge ext_c or its film line, else -1
     ext_c: np.ndarray
+    mouth: np.ndarray  # a closed film's mouth along the edge (fsci.cut.state.CutState.mouths), not on it
 
     def __len__(self) -> int:
         return len(self.body)
@@ -230,10 +231,17 @@ def build_pieces(boundaries: list[BoundaryOf], cut, radius: float, self_contact:
         has_opp = rows[:, 9] >= 0
         keep = fs | has_opp | (ext[:, 0] >= 0)
         rows, ext = rows[keep], ext[keep]
-        cols.append(np.column_stack([np.full(len(rows), b), rows, ext]))
-    a = np.vstack(cols) if cols else np.zeros((0, 19))
+        cols.append(np.column_stack([np.full(len(rows), b), rows, ext, np.zeros(len(rows))]))
+        if cut is not None:  # the mouths of closed films along this body's edges (bulk shape derivative only)
+            m = cut.mouths
+            sel = m.body == b
+            none = np.full(int(sel.sum()), -1.0)
+            cols.append(np.column_stack([np.full(len(none), b), m.edge[sel], m.s0[sel], m.s1[sel], none, none,
+                                         0.0 * none, 0.0 * none, m.part[sel], -none, none, none, none, none, none,
+                                         0.0 * none, none, none, 0.0 * none, -none]))
+    a = np.vstack(cols) if cols else np.zeros((0, 20))
     i = lambda c: a[:, c].astype(np.int64)  # noqa: E731
     return CouplingPieces(body=i(0), edge=i(1), s0=a[:, 2].copy(), s1=a[:, 3].copy(), d0=i(4), d1=i(5),
                           c0=a[:, 6].copy(), c1=a[:, 7].copy(), cell=i(8), fs=a[:, 9] > 0, opp_body=i(10),
                           opp_edge=i(11), end_body=i(12), end_edge=i(13), ext_edge=i(14), ext_s=a[:, 15].copy(),
-                          ext_cell=i(16), ext_d=i(17), ext_c=a[:, 18].copy())
+                          ext_cell=i(16), ext_d=i(17), ext_c=a[:, 18].copy(), mouth=a[:, 19] > 0)

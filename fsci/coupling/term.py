@@ -388,7 +388,11 @@ class CouplingTerm:
                 for b, s in enumerate(system.solids):
                     mb = body == b
                     e = self._edges[b][pc.edge[sel[mb]]]
-                    xg[mb] = self._gauss_points((s.X + s.U)[e], pc.s0[sel[mb]], pc.s1[sel[mb]])
+                    x = s.X + s.U
+                    xg[mb] = self._gauss_points(x[e], pc.s0[sel[mb]], pc.s1[sel[mb]])
+                    t = x[e[:, 1]] - x[e[:, 0]]
+                    n = np.column_stack([t[:, 1], -t[:, 0]]) / np.linalg.norm(t, axis=1)[:, None]
+                    xg[mb] += (system.cut.film_delta * pc.mouth[sel[mb]])[:, None, None] * n[:, None, :]  # on the film's line
                 bq[sel] = f.rho * time_weighted_vector(f.spec.body_force, f.spec.body_force_function, ctx,
                                                        lambda: xg.reshape(-1, 2), len(sel) * G).reshape(-1, G, 2)
         return dict(vq=vq, kap=kap, vqe=vqe, bq=bq)
@@ -429,7 +433,8 @@ class CouplingTerm:
             fp[:, tk.F_FILM] = system.cut.film_delta
         has_opp = pc.opp_body >= 0
         has_ext = pc.ext_edge >= 0
-        flags = np.where(has_opp, tk.HAS_OPP, 0) | np.where(pc.fs, tk.ON_FS, 0) | np.where(has_ext, tk.HAS_EXT, 0)
+        flags = np.where(has_opp, tk.HAS_OPP, 0) | np.where(pc.fs, tk.ON_FS, 0) | np.where(has_ext, tk.HAS_EXT, 0) | \
+            np.where(pc.mouth, tk.MOUTH, 0)
         held = has_opp & ~pc.fs & self._held[self._edge_offset[pc.body] + pc.edge]
         flags |= np.where(held, tk.HELD, 0)
         transient = not ctx.static
@@ -642,9 +647,10 @@ class CouplingTerm:
         out = np.zeros((len(d["ip"]), len(self.gp), tk.N_OUT))
         w_t = 1.0 if ctx.static else ctx.theta
         self._run(system, ctx, d, asm, (1.0, w_t, 1.0), out)
-        self.out = out
         pc = self.pieces(system)
-        self._out_body, self._out_edge, self._out_dry = pc.body, pc.edge, ~pc.fs & (pc.opp_body >= 0)
+        real = ~pc.mouth  # a film's mouth has no interface points
+        self.out = out[real]
+        self._out_body, self._out_edge, self._out_dry = pc.body[real], pc.edge[real], (~pc.fs & (pc.opp_body >= 0))[real]
         if self._old is not None:
             st = asm.layout.start
             c = 1.0 - ctx.theta

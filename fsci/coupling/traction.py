@@ -41,7 +41,9 @@ includes the motion of the split points (Remark 9), of the ends where the edge c
 line or another body's boundary or where a closed film ends (the end of the wetted part in
 contact, and the extension point there), g_n, x̌, n, σ̌, κ(g_n) and the extended values'
 dependence on the transition cell and edge; an end elsewhere (a held dry region, a mitre corner
-of a closed film) is fixed with the cut (docs/architecture.md, decisions 21 and 39).
+of a closed film) is fixed with the cut (docs/architecture.md, decisions 21 and 39). The bulk
+shape derivative follows every moving part of the fluid boundary: the wetted pieces and the
+mouths of closed films (``MOUTH`` pieces, decision 43).
 """
 
 from __future__ import annotations
@@ -65,7 +67,9 @@ N_SLOTS = 24
 OFF_OPP, OFF_CELL, OFF_EXT, OFF_EDGE, OFF_END = 8, 16, 28, 40, 44
 
 # flags (bit field per piece)
-HAS_OPP, ON_FS, HAS_EXT, SLIP_LAW, HAS_FLUID, HELD = 1, 2, 4, 8, 16, 32
+HAS_OPP, ON_FS, HAS_EXT, SLIP_LAW, HAS_FLUID, HELD, MOUTH = 1, 2, 4, 8, 16, 32, 64
+# MOUTH: the mouth of a closed film along the edge, at distance F_FILM on its outward side: no
+# interface terms, only the bulk shape derivative (fsci.cut.state.CutState._film_mouths)
 # HELD: a dry piece whose contact swung back and forth in this step's iterations; its points with
 # g_n <= 0 stay in contact for the rest of the step (CouplingTerm.track_case_swings, decision 38)
 # integer data per piece
@@ -411,7 +415,8 @@ def add_bulk_shape_derivative(K, z, ip, fp, Xo, Xm, Xe, Vo, Vb, bq, fprm, gp, gw
     Cut-cell quadrature is exact for these integrands, so this is the exact derivative of the
     discrete bulk residual with respect to the boundary position. ``Vo``: previous velocity at
     the cell nodes, ``Vb``: the frozen stabilisation velocity there, ``bq[g]``: body-force density at the Gauss points, ``fprm``: cell
-    parameters of the fluid kernel."""
+    parameters of the fluid kernel. A ``MOUTH`` piece is the mouth of a closed film: the same
+    integral on the edge's line moved by δ = ``fp[F_FILM]`` along its normal (decision 43)."""
     if (ip[I_FLAGS] & ON_FS) == 0:
         return
     eo = ip[I_EO]
@@ -435,6 +440,12 @@ def add_bulk_shape_derivative(K, z, ip, fp, Xo, Xm, Xe, Vo, Vb, bq, fprm, gp, gw
     sa = _piece_end(ip[I_D0], fp[F_S0], fp[F_C0], A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1, fp[F_FILM])
     B0, B1, w0, w1 = _crossed_edge(z, Xe, 1)
     sb = _piece_end(ip[I_D1], fp[F_S1], fp[F_C1], A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1, fp[F_FILM])
+    if (ip[I_FLAGS] & MOUTH) != 0:
+        # a film's mouth: on the edge's line moved by δ along n, which moves with the edge along n
+        # (δ n turns, but only tangentially to itself), so the same normal velocity; its ends
+        # move along the boundary only, which the first variation of the integral does not see
+        A0 += fp[F_FILM] * n0
+        A1 += fp[F_FILM] * n1
     hx = fp[F_HX]
     hy = fp[F_HY]
     N = np.empty(4)
@@ -538,6 +549,21 @@ def _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_a
     piece that contributes nothing."""
     for k in prange(len(ip_all)):
         z = z_all[k]
+        if (ip_all[k, I_FLAGS] & MOUTH) != 0:
+            # a closed film's mouth: nothing in the residual, the bulk shape derivative in the Jacobian
+            used[k] = want_matrix and shape
+            R_all[k, :] = 0.0
+            if used[k]:
+                idx = np.empty(N_LOCAL, dtype=np.int64)
+                m = _live_columns(conn[k], idx)
+                Kf = np.zeros((N_LOCAL, N_LOCAL))
+                add_bulk_shape_derivative(Kf, z, ip_all[k], fp_all[k], Xo_all[k], Xm_all[k], Xe_all[k], Vo_all[k],
+                                          Vb_all[k], bq_all[k], fprm, gp, gw)
+                Kc = K_live[k_off[k]:k_off[k + 1]]
+                for ii in range(m):
+                    for jj in range(m):
+                        Kc[ii * m + jj] = Kf[idx[ii], idx[jj]]
+            continue
         r = np.empty(N_LOCAL)
         out = out_all[k]
         used[k] = piece_residual(z, r, out, ip_all[k], fp_all[k], Xo_all[k], prmo_all[k], Xm_all[k],

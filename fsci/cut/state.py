@@ -275,7 +275,9 @@ class CutState:
         g = self.grid
         bodies = [o.polygon for o in self.outlines]
         held = [self.held_dry] if self.held_dry is not None and not self.held_dry.is_empty else []
-        solid = shapely.union_all(bodies + self._closed_films(bodies) + held) if bodies else shapely.Polygon()
+        films = self._closed_films(bodies)
+        self.has_films = bool(films)
+        solid = shapely.union_all(bodies + films + held) if bodies else shapely.Polygon()
         fluid = shapely.difference(self.box, solid)
         parts = list(shapely.get_parts(fluid)) if not fluid.is_empty else []
         keep, islands = [], []
@@ -546,8 +548,7 @@ class CutState:
             i0 = np.nonzero(keep)[0]
             rows.append((np.full(len(i0), b), E[i0], S[i0], S[i0 + 1], Kd[i0], Ln[i0], Kd[i0 + 1], Ln[i0 + 1]))
         if not rows:
-            z, f = np.zeros(0, dtype=np.int64), np.zeros(0)
-            self.segments = Segments(z, z, f, f, z, z, np.zeros(0, bool), z, f, z, f, np.zeros(0, bool))
+            self.segments = self.mouths = _no_segments()
             return
         body = np.concatenate([r[0] for r in rows]).astype(np.int64)
         edge = np.concatenate([r[1] for r in rows]).astype(np.int64)
@@ -593,6 +594,62 @@ class CutState:
         part[fs] += g.n_cells * self.local_part(cell[fs], probe[fs])  # the part on the wetted side
         self.segments = Segments(body, edge, s0, s1, cell, part, fs.astype(bool), ends[0].astype(np.int64),
                                  ends[1], ends[2].astype(np.int64), ends[3], inside)
+        self.mouths = self._film_mouths(a_if, c_if, body_if, off, hmin)
+
+    def _film_mouths(self, a_if: np.ndarray, c_if: np.ndarray, body_if: np.ndarray, off: np.ndarray,
+                     hmin: float) -> Segments:
+        """The mouths of the closed films (:meth:`_closed_films`): the parts of the fluid
+        region's boundary on no body edge but on the line at distance δ from an interface edge,
+        on its outward side, split at grid lines. As pieces of that edge (``s0``, ``s1`` its
+        parameters, ``part`` the fluid part on the far side), they carry the motion of the
+        fluid boundary there, which is the edge's motion along its normal, into the bulk shape
+        derivative (:func:`fsci.coupling.traction.add_bulk_shape_derivative`). Parts on a mitre
+        corner of the grown outlines or on a held dry region are not among them."""
+        if not getattr(self, "has_films", False) or self.fluid.is_empty or not len(a_if):
+            return _no_segments()
+        g = self.grid
+        delta = self.film_delta
+        tol = 1e-9 * hmin
+        xy, ring = shapely.get_coordinates(shapely.get_rings(shapely.get_parts(self.fluid)), return_index=True)
+        same = ring[1:] == ring[:-1]
+        pa, pb = xy[:-1][same], xy[1:][same]
+        k, j = shapely.STRtree(shapely.linestrings(np.stack([a_if, c_if], axis=1))).query(
+            shapely.points(0.5 * (pa + pb)), predicate="dwithin", distance=delta + tol)
+        t = c_if[j] - a_if[j]
+        L2 = np.einsum("ij,ij->i", t, t)
+        n = np.column_stack([t[:, 1], -t[:, 0]]) / np.sqrt(L2)[:, None]
+        on_line = (np.abs(np.einsum("ij,ij->i", pa[k] - a_if[j], n) - delta) <= tol) & \
+            (np.abs(np.einsum("ij,ij->i", pb[k] - a_if[j], n) - delta) <= tol)
+        k, j, t, L2, n = k[on_line], j[on_line], t[on_line], L2[on_line], n[on_line]
+        rows = []
+        for kk, jj, tt, ll, nn in zip(k.tolist(), j.tolist(), t, L2, n):
+            a, b = pa[kk], pb[kk]
+            if any(shapely.dwithin(o.polygon.boundary, shapely.Point(0.5 * (a + b)), tol) for o in self.outlines):
+                continue  # on a body edge as well: a piece of that body carries it
+            cnt = np.zeros(1, dtype=np.int64)
+            cap = 2 * (len(g.xs) + len(g.ys))
+            oe, os_, ok_, ol_ = np.empty(cap, np.int64), np.empty(cap), np.empty(cap, np.int64), np.empty(cap)
+            _grid_crossings(a[None], b[None], g.xs, g.ys, oe, os_, ok_, ol_, cnt)
+            cuts = np.unique(np.concatenate([[0.0, 1.0], os_[:cnt[0]]]))
+            for lo, hi in zip(cuts[:-1], cuts[1:]):
+                p, q = a + lo * (b - a), a + hi * (b - a)
+                s = np.clip([np.dot(p - a_if[jj], tt) / ll, np.dot(q - a_if[jj], tt) / ll], 0.0, 1.0)
+                if abs(s[1] - s[0]) <= 1e-13:
+                    continue
+                probe = 0.5 * (p + q) + 1e-8 * hmin * nn  # the fluid's side
+                cell = int(g.locate(probe[None])[0])
+                if self.state[cell] == SOLID or not shapely.contains_xy(self.fluid, *probe):
+                    continue
+                part = cell + g.n_cells * int(self.local_part(np.array([cell]), probe[None])[0])
+                b_ = int(body_if[jj])
+                rows.append((b_, jj - int(off[b_]), float(s.min()), float(s.max()), cell, part))
+        if not rows:
+            return _no_segments()
+        r = np.array(rows, dtype=float)
+        i = r[:, [0, 1, 4, 5]].astype(np.int64)
+        fixed = np.full(len(r), END_FIXED, dtype=np.int64)
+        return Segments(i[:, 0], i[:, 1], r[:, 2].copy(), r[:, 3].copy(), i[:, 2], i[:, 3], np.ones(len(r), bool),
+                        fixed, np.zeros(len(r)), fixed.copy(), np.zeros(len(r)), np.ones(len(r), bool))
 
     def _film_ends(self, pts: np.ndarray, body: np.ndarray, hmin: float,
                    others: tuple | None) -> tuple[np.ndarray, np.ndarray]:
@@ -979,6 +1036,11 @@ class CutState:
             pts, _ = self.interface_points(bb, mask)
             total += float(np.sum(np.linalg.norm(pts[:, 1] - pts[:, 0], axis=1)))
         return total
+
+
+def _no_segments() -> Segments:
+    z, f = np.zeros(0, dtype=np.int64), np.zeros(0)
+    return Segments(z, z, f, f, z, z, np.zeros(0, bool), z, f, z, f, np.zeros(0, bool))
 
 
 def face_nodes(cells: np.ndarray, faces: np.ndarray) -> np.ndarray:
