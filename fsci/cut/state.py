@@ -16,7 +16,9 @@ One :class:`CutState` per geometry holds everything the fluid and coupling terms
 * interface segments: every interface edge of every body split at grid lines, at crossings
   with other bodies' outlines and at the box boundary; each piece knows its body, edge, local
   coordinate range, background cell and whether it bounds fluid (Γ^FS) or not (Γ^SC: inside
-  another body, bounding a removed island, or outside the box).
+  another body, bounding a removed island, or outside the box);
+* the mouths of closed films (``mouths``): fluid boundary on the line at distance δ from an
+  interface edge, for the bulk shape derivative only (:meth:`CutState._film_mouths`).
 
 The physical fluid region is ``box − ⋃ bodies − islands``; an island is a connected fluid piece
 whose bounding-box diagonal is below ``island_factor`` × the size of the cells it touches
@@ -605,7 +607,7 @@ class CutState:
         fluid boundary there, which is the edge's motion along its normal, into the bulk shape
         derivative (:func:`fsci.coupling.traction.add_bulk_shape_derivative`). Parts on a mitre
         corner of the grown outlines or on a held dry region are not among them."""
-        if not getattr(self, "has_films", False) or self.fluid.is_empty or not len(a_if):
+        if not self.has_films or self.fluid.is_empty or not len(a_if):
             return _no_segments()
         g = self.grid
         delta = self.film_delta
@@ -1039,6 +1041,7 @@ class CutState:
 
 
 def _no_segments() -> Segments:
+    """An empty set of interface pieces."""
     z, f = np.zeros(0, dtype=np.int64), np.zeros(0)
     return Segments(z, z, f, f, z, z, np.zeros(0, bool), z, f, z, f, np.zeros(0, bool))
 
