@@ -540,6 +540,17 @@ def _live_columns(conn_k, idx):
     return m
 
 
+@njit(cache=True)
+def _finish_local(Kf, shape, z, ip, fp, Xo, Xm, Xe, Vo, Vb, bq, fprm, gp, gw, idx, m, Kc):
+    """Add the bulk shape derivative (``shape``) to a piece's full local Jacobian ``Kf`` and
+    store it compacted to its ``m`` live unknowns ``idx`` in ``Kc`` (row-major)."""
+    if shape:
+        add_bulk_shape_derivative(Kf, z, ip, fp, Xo, Xm, Xe, Vo, Vb, bq, fprm, gp, gw)
+    for ii in range(m):
+        for jj in range(m):
+            Kc[ii * m + jj] = Kf[idx[ii], idx[jj]]
+
+
 @njit(cache=True, parallel=True)
 def _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_all, vq_all, kap_all, Xe_all,
                   We_all, vqe_all, Vo_all, Vb_all, bq_all, fprm, shape, mu, sym, sadj, variant33, w_p, w_t, w_c, gp, gw,
@@ -556,13 +567,9 @@ def _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_a
             if used[k]:
                 idx = np.empty(N_LOCAL, dtype=np.int64)
                 m = _live_columns(conn[k], idx)
-                Kf = np.zeros((N_LOCAL, N_LOCAL))
-                add_bulk_shape_derivative(Kf, z, ip_all[k], fp_all[k], Xo_all[k], Xm_all[k], Xe_all[k], Vo_all[k],
-                                          Vb_all[k], bq_all[k], fprm, gp, gw)
-                Kc = K_live[k_off[k]:k_off[k + 1]]
-                for ii in range(m):
-                    for jj in range(m):
-                        Kc[ii * m + jj] = Kf[idx[ii], idx[jj]]
+                _finish_local(np.zeros((N_LOCAL, N_LOCAL)), True, z, ip_all[k], fp_all[k], Xo_all[k], Xm_all[k],
+                              Xe_all[k], Vo_all[k], Vb_all[k], bq_all[k], fprm, gp, gw, idx, m,
+                              K_live[k_off[k]:k_off[k + 1]])
             continue
         r = np.empty(N_LOCAL)
         out = out_all[k]
@@ -609,13 +616,8 @@ def _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_a
                                variant33, w_p, w_t, w_c, gp, gw, cases)
                 for l in range(N_LOCAL):
                     Kf[l, j] = rc[l].imag / CS_STEP
-            if shape:
-                add_bulk_shape_derivative(Kf, z, ip_all[k], fp_all[k], Xo_all[k], Xm_all[k], Xe_all[k], Vo_all[k],
-                                          Vb_all[k], bq_all[k], fprm, gp, gw)
-            Kc = K_live[k_off[k]:k_off[k + 1]]
-            for ii in range(m):
-                for jj in range(m):
-                    Kc[ii * m + jj] = Kf[idx[ii], idx[jj]]
+            _finish_local(Kf, shape, z, ip_all[k], fp_all[k], Xo_all[k], Xm_all[k], Xe_all[k], Vo_all[k], Vb_all[k],
+                          bq_all[k], fprm, gp, gw, idx, m, K_live[k_off[k]:k_off[k + 1]])
 
 
 @njit(cache=True)
