@@ -30,11 +30,11 @@ from typing import Callable, Iterator
 from fsci import __version__
 from fsci.errors import InputError, SolverError
 from fsci.fields import StepContext
-from fsci.post.quantities import QuantityEvaluator
+from fsci.post.quantities import QuantityEvaluator, relative_mass_error
 from fsci.problem import Problem, load_step_ratio
 from fsci.solver.linear import make_linear_solver
 from fsci.solver.newton import NewtonReport, solve_nonlinear
-from fsci.system import System, restore, snapshot
+from fsci.system import HOLD_LEAK, System, restore, snapshot
 
 EPS_T = 1e-12
 
@@ -174,13 +174,14 @@ class Simulation:
         dt = self.next_dt()
         cuts = 0
         hold = False  # contact that swings is held (decision 38)
+        hold_pockets = True  # a pocket that opens and shuts is held dry (decision 36)
         while True:
             saved = snapshot(self.system)
             ctx = StepContext(self.t, self.t + dt, dt, p.time.theta, static, self._load_lead(dt) if static else 0.0)
             try:
                 self._in_solve = True  # a signal now stops at once: the step start is restored
                 try:
-                    self.system.begin_step(ctx, hold_swings=hold)
+                    self.system.begin_step(ctx, hold_swings=hold, hold_pockets=hold_pockets)
                 except SolverError as exc:  # the predicted start cannot be cut: a smaller step predicts less
                     rep = NewtonReport(False, 0, reason=f"step start cannot be evaluated: {exc}")
                 else:
@@ -199,7 +200,17 @@ class Simulation:
                 self._in_solve = False
             self.newton_total += rep.iterations
             if rep.converged:
-                break
+                self.system.finish_step(ctx)
+                leak = relative_mass_error(self.system) if self.system.holds_pocket() else 0.0
+                if leak <= HOLD_LEAK:
+                    break
+                # fluid flowed through the held region's edge: the same step without the hold
+                restore(self.system, saved)
+                hold_pockets = False
+                if self.monitor is not None:
+                    self.monitor.message(f"step {self.step + 1} at t={self.t:.6g}: the state with a pocket held "
+                                         f"dry loses {leak:.2g} of the flux; repeated without the hold")
+                continue
             restore(self.system, saved)
             if not hold and dt < self.nominal_dt(self.t)[0] and self.system.contact_swung():
                 # a step already cut below the schedule in which contact swung back and forth: a
@@ -223,7 +234,7 @@ class Simulation:
                 raise SolverError(f"step {self.step + 1} at t = {self.t:.6g} failed after {cuts - 1} step cuts "
                                   f"(dt = {dt:.4g}): {rep.reason}")
             dt = new_dt
-        self.system.finish_step(ctx)
+            hold_pockets = True
         row_values = self.quantities.step_values()
         self.system.end_step(ctx)
         self.t = ctx.t_new

@@ -25,6 +25,10 @@ from fsci.problem import Problem
 
 HOLD_AFTER_FLIPS = 2  # changes of the fluid's topology within a step after which dry regions are held
 HOLD_MARGIN = 0.05  # a held region is grown by this × (smallest cell side): the bodies move on
+# largest mass-balance error Φ¹_err of a state converged with a held region, relative to the
+# step's largest flux; the fluid flows through the held region's edge, where nothing holds it
+# back, and a larger error repeats the step without the hold (decision 36)
+HOLD_LEAK = 1e-5
 # times in a step a converged state is solved again without the nodes that grow-only re-cuts kept
 # (decision 41); after that, such a state is accepted as it is
 MAX_OWN_DROPS = 2
@@ -44,6 +48,7 @@ class System:
         self.cut: CutState | None = None
         self.layout_changes = 0
         self.hold_swings = False  # hold contact that swings in this attempt (decision 38)
+        self.hold_pockets = True  # hold a pocket that opens and shuts in this attempt (decision 36)
         self._cut_frozen = False
         self._follow_until = 0  # the cut follows the iterates up to this iteration of the step
         self._own_drops = 0  # re-cuts of the step that dropped kept nodes (decision 41)
@@ -100,7 +105,7 @@ class System:
         # next, back and forth: the residual jumps with it and Newton cycles (decision 36); after
         # two such changes in a step the islands of its cuts stay dry for the rest of the step
         held = shapely.buffer(self._dry_seen, HOLD_MARGIN * self._smallest_cell_side()) \
-            if self._topology_flips >= HOLD_AFTER_FLIPS else None
+            if self.hold_pockets and self._topology_flips >= HOLD_AFTER_FLIPS else None
         cut = CutState(f.grid, outlines, st.island_factor, keep_nodes=keep_nodes, film_closure=st.film_closure,
                        separate_parts=st.unknowns == "per_fluid_part", trapped_film=st.trapped_film,
                        held_dry=held)
@@ -126,6 +131,10 @@ class System:
         if changed and not initial:
             self.build_layout()
         return changed
+
+    def holds_pocket(self) -> bool:
+        """Whether the current cut holds a region dry (decision 36)."""
+        return self.cut is not None and self.cut.held_dry is not None and not self.cut.held_dry.is_empty
 
     def contact_swung(self) -> bool:
         """Whether contact swung back and forth in the iterations of the last attempt (decision 38)."""
@@ -365,10 +374,12 @@ class System:
 
 
     # ----------------------------------------------------------------- steps
-    def begin_step(self, ctx: StepContext, hold_swings: bool = False) -> None:
+    def begin_step(self, ctx: StepContext, hold_swings: bool = False, hold_pockets: bool = True) -> None:
         """Start the step ``ctx``; with ``hold_swings`` contact that swings in its iterations is
-        held (a repeated attempt, decision 38)."""
+        held (a repeated attempt, decision 38); with ``hold_pockets`` False a pocket that opens
+        and shuts is not held dry (a repeat after a held state lost mass, decision 36)."""
         self.hold_swings = hold_swings
+        self.hold_pockets = hold_pockets
         for term in self.extra_terms:  # the old time level, before anything of the new step moves
             term.store_old_level(self, ctx)
         for s in self.solids:

@@ -144,18 +144,20 @@ def test_reconstruction_keeps_the_paper_facts():
 
 @pytest.mark.slow
 def test_squeezed_first_contact_right_then_left_splits_the_fluid(tmp_path):
-    """Coarse (n = 20: 40 × 100 cells, body mesh 0.03: 772 quads), Δt = 5e-5 up to t = 0.004
-    (80 steps, no step cut; about 100 s on one core): the body is carried down, touches the
+    """Coarse (n = 20: 40 × 100 cells, body mesh 0.03: 772 quads), Δt = 5e-5 up to t = 0.0068
+    (136 steps, no step cut; about 120 s on one core): the body is carried down, touches the
     right bump of the first barrier first and then the left one, and the fluid splits in two
     (measured: right 0.0031, left and split 0.00365; paper 0.00324, 0.00386). No contact and one
     fluid region before; from t = 0.002 to first contact the outflow rate equals the inflow
     rate 133.25 within 1 % (measured 0.4 %: the start-up transient has died out) and the body
     keeps its area within 1 % (measured 0.33 %); once the channel is closed the outflow falls
-    below 80 % of the inflow (measured 84.7, 64 %); mass balance Φ¹ within 2e-6 of the largest
-    flux (measured 5.6e-7)."""
+    below 80 % of the inflow (measured 83.8, 63 %). Mass balance Φ¹ within 5e-6 of the inflow
+    rate all through the contact, where a pocket at the contact's edge opens and shuts between
+    iterates (measured 9.0e-7; a held pocket whose edge let fluid through gave 8.6e-4 before
+    such a state was solved again without the hold, decision 36)."""
     out = tmp_path / "sq"
     assert main(["run", "squeezed", "--set", "n=20", "--set", "hb=0.03",
-                 "--set", "time.segments=[{until=0.004, dt=5e-5}]", "--set", "output.every=0",
+                 "--set", "time.segments=[{until=0.0068, dt=5e-5}]", "--set", "output.every=0",
                  "--set", "output.figures=false", "--set", "output.fields=false", "--out", str(out)]) == 0
     r = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
     t = r["time"]
@@ -173,4 +175,5 @@ def test_squeezed_first_contact_right_then_left_splits_the_fluid(tmp_path):
     assert np.abs(r["centroid_area"][before] / r["centroid_area"][0] - 1).max() < 0.01
     assert r["centroid_y"][-1] < sq.Y0 - 0.5 and np.all(np.diff(r["centroid_y"]) < 0)
     assert r["flow_out"][t >= t_split].min() < 0.8 * -r["flow_in"][-1]
-    assert r["mass_err1"].max() < 2e-6 * np.abs(r["mass_phi_solid"]).max()
+    assert np.all(r["dt"] == 5e-5)
+    assert r["mass_err1"].max() < 5e-6 * -r["flow_in"].min()

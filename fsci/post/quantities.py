@@ -434,6 +434,19 @@ def mass_balance(system, prefix: str) -> dict[str, float]:
             f"{prefix}_err1_pieces": piece_mass_error(system, x, n, w_s, sides)}
 
 
+def relative_mass_error(system) -> float:
+    """``|Φ^S − Φ_box|`` (the ``err1`` of :func:`mass_balance`) relative to the largest flux of
+    the state: ``|Φ^S|`` or the flow through one side of the box, whichever is larger (0 when
+    nothing flows)."""
+    from fsci.post.forces import interface_flux_points
+
+    side_flux = [float(np.sum(boundary_flux_points(system.fluid, side)[1]))
+                 for side in ("left", "right", "bottom", "top")]
+    phi_s = float(np.sum(interface_flux_points(system)[3]))
+    scale = max(abs(phi_s), *(abs(f) for f in side_flux))
+    return abs(phi_s - sum(side_flux)) / scale if scale > 0.0 else 0.0
+
+
 def piece_mass_error(system, x: np.ndarray, n: np.ndarray, w_s: np.ndarray,
                      sides: dict[str, tuple[np.ndarray, np.ndarray]]) -> float:
     """Largest ``|Φ^S_P − Φ_box,P|`` over the connected fluid pieces P: (46) holds for the whole
