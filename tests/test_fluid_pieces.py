@@ -233,3 +233,32 @@ def test_a_pocket_that_opens_and_shuts_in_turn_is_held_dry():
     assert abs(first_open.qw.sum() - held.qw.sum() - lost) < 1e-12
     system.begin_step(ctx)  # a new step: no hold
     assert abs(system.cut.qw.sum() - first_open.qw.sum()) < 1e-12
+
+
+@pytest.mark.parametrize("leak, attempts", [(1e-3, [True, False]), (1e-6, [True])])
+def test_a_held_state_that_loses_mass_is_solved_again_without_the_hold(monkeypatch, leak, attempts):
+    """A held region's edge against open fluid carries no condition, so fluid can leave through
+    it (seen on the squeezed body: Φ¹_err 1.3e-3 of the inflow). A step that converged with a
+    region held dry is accepted only if its mass-balance error is at most ``HOLD_LEAK`` of the
+    step's largest flux; otherwise the same step (same Δt) is solved again from its start
+    without the hold, and that state is accepted as it is. The cut's hold is stood in for here:
+    the converged state holds a region whenever the attempt allowed it, and loses ``leak``."""
+    import fsci.simulation as simulation
+    from fsci.system import HOLD_LEAK
+
+    assert 1e-6 < HOLD_LEAK < 1e-3
+    sim = Simulation(problem_from_dict(_wall_case()))
+    allowed: list[bool] = []
+    begin = System.begin_step
+
+    def begin_step(self, ctx, hold_swings=False, hold_pockets=True):
+        allowed.append(hold_pockets)
+        begin(self, ctx, hold_swings=hold_swings, hold_pockets=hold_pockets)
+
+    monkeypatch.setattr(System, "begin_step", begin_step)
+    monkeypatch.setattr(System, "holds_pocket", lambda self: self.hold_pockets)
+    monkeypatch.setattr(simulation, "relative_mass_error", lambda system: leak)
+    ctx = sim.advance()
+    assert allowed == attempts
+    assert ctx.dt == 1.0 and sim.step == 1 and sim.t == 1.0
+    assert sim.newton_total == len(attempts) * sim.history[-1]["newton_iterations"]
