@@ -5,9 +5,10 @@ product of the axes, each a separate ``fsci run`` process in its own folder
 ``OUT/<key>=<value>_...`` (log in ``OUT/logs``). All combinations are validated first, so bad
 input stops the sweep before any run starts (exit 2). A folder whose results.json exists is
 not run again, one with a checkpoint is resumed, so an interrupted sweep continues where it
-stopped. The processes run locally (``--jobs`` at a time; PARDISO uses one thread below
-about 20,000 unknowns, so parallel runs use the cores) or as tasks on a Dask distributed
-cluster (the workers need fsci installed and the output folder on a shared file system).
+stopped. The processes run locally (``--jobs`` at a time, the cores shared out among them:
+each run gets ``cores // jobs`` numba and MKL threads unless ``NUMBA_NUM_THREADS`` or
+``MKL_NUM_THREADS`` is set) or as tasks on a Dask distributed cluster (the workers need fsci
+installed and the output folder on a shared file system).
 
 The summary ``OUT/summary.csv`` and ``OUT/summary.md`` has one row per run: the swept values,
 the exit status, the reference checks, the wall time and every scalar result.
@@ -19,6 +20,7 @@ import csv
 import io
 import itertools
 import json
+import os
 import re
 import subprocess
 import sys
@@ -87,9 +89,11 @@ def plan(sets: list[str]) -> list[Run]:
     return runs
 
 
-def run_one(case: str, run: Run, folder: str, logs: str) -> dict[str, Any]:
+def run_one(case: str, run: Run, folder: str, logs: str, threads: int | None = None) -> dict[str, Any]:
     """Run (or resume, or skip when finished) one run of a sweep in a separate process;
-    returns its name, exit status and what it did. Module level, so a Dask worker can run it."""
+    returns its name, exit status and what it did. Module level, so a Dask worker can run it.
+    ``threads``: the run's numba and MKL threads (``NUMBA_NUM_THREADS``, ``MKL_NUM_THREADS``),
+    unless the environment sets them already; None leaves both to the run."""
     out = Path(folder)
     if (out / "results.json").is_file():
         return {"run": run.name, "exit": 0, "action": "done before"}
@@ -101,8 +105,12 @@ def run_one(case: str, run: Run, folder: str, logs: str) -> dict[str, Any]:
             cmd += ["--set", o]
     Path(logs).mkdir(parents=True, exist_ok=True)
     with open(Path(logs) / f"{run.name}.log", "w") as log:
+        env = dict(os.environ)
+        if threads is not None:
+            for var in ("NUMBA_NUM_THREADS", "MKL_NUM_THREADS"):
+                env.setdefault(var, str(threads))
         code = subprocess.run([sys.executable, "-m", "fsci", *cmd, "--no-check"], stdout=log, stderr=subprocess.STDOUT,
-                              stdin=subprocess.DEVNULL).returncode
+                              stdin=subprocess.DEVNULL, env=env).returncode
     return {"run": run.name, "exit": code, "action": action}
 
 
@@ -185,8 +193,11 @@ def run_sweep(case: str, sets: list[str], out: Path | None, jobs: int = 1, dask:
         with Client(dask) as client:
             status = client.gather(client.map(run_one, *map(list, zip(*args)), pure=False))
     else:
+        # the cores shared out: two fine-stamp runs side by side on 2 cores took 0.91x the wall
+        # time with one thread each than with two each (docs/performance.md)
+        threads = max(1, (os.cpu_count() or 1) // min(jobs, len(runs))) if jobs > 1 else None
         with ThreadPoolExecutor(max_workers=jobs) as pool:  # threads wait on the run processes
-            status = list(pool.map(lambda a: run_one(*a), args))
+            status = list(pool.map(lambda a: run_one(*a, threads), args))
     rows = summary(runs, status, out)
     print(write_summary(rows, out), end="")
     if any(s["exit"] not in (0,) for s in status):

@@ -82,3 +82,16 @@ def test_reused_factors_solve_to_the_requested_residual(n, shift, rtol, reused, 
         assert residual <= max(rtol, PardisoSolver.RTOL) and solver.counts["krylov"] <= krylov
     else:
         assert residual <= 1e-8
+
+
+@pytest.mark.skipif("pardiso" not in available_backends(), reason="PARDISO not available")
+def test_pardiso_threads_follow_mkl_num_threads(monkeypatch):
+    """Large systems use every core unless ``MKL_NUM_THREADS`` (set by ``fsci sweep`` for runs
+    side by side) asks for fewer."""
+    import os
+
+    solver = PardisoSolver()
+    monkeypatch.delenv("MKL_NUM_THREADS", raising=False)
+    assert solver.threads == (os.cpu_count() or 1)
+    monkeypatch.setenv("MKL_NUM_THREADS", "1")
+    assert solver.threads == 1

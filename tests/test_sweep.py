@@ -99,3 +99,30 @@ def test_bad_value_stops_the_sweep_before_any_run(tmp_path, capsys):
     assert main(["sweep", str(case), "--set", "bodies.b.material.E=10,-1", "--out", str(out)]) == 2
     assert "bodies[0].material.E = -1:" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_runs_side_by_side_share_the_cores(tmp_path, monkeypatch):
+    """Each run of ``--jobs N`` gets ``cores // N`` numba and MKL threads (runs side by side with
+    every core each contend for them); a thread count the user set in the environment is kept;
+    one run at a time is left alone."""
+    import subprocess
+
+    import fsci.sweep as sweep
+
+    envs: list[dict[str, str]] = []
+
+    class Done:
+        returncode = 0
+
+    monkeypatch.setattr(subprocess, "run", lambda *a, env=None, **kw: envs.append(env) or Done())
+    monkeypatch.setattr(sweep.os, "cpu_count", lambda: 4)
+    monkeypatch.delenv("NUMBA_NUM_THREADS", raising=False)
+    monkeypatch.setenv("MKL_NUM_THREADS", "3")
+    case = tmp_path / "block.toml"
+    case.write_text(CASE)
+    sweep.run_sweep(str(case), ["bodies.b.material.E=10,20"], tmp_path / "s", jobs=2)
+    assert [e["NUMBA_NUM_THREADS"] for e in envs] == ["2", "2"]
+    assert [e["MKL_NUM_THREADS"] for e in envs] == ["3", "3"]  # the user's
+    envs.clear()
+    sweep.run_sweep(str(case), ["bodies.b.material.E=10,20"], tmp_path / "s1", jobs=1)
+    assert [e.get("NUMBA_NUM_THREADS") for e in envs] == [None, None]
