@@ -211,3 +211,21 @@ def test_load_step_ratio():
     assert load_step_ratio(problem_from_dict(fsi1), 0.0, 0.5, 1.0) == 0.0  # the inflow starts now
     fsi1["fluid"]["dirichlet"][0]["value"][0] = "6*U*y*(H-y)/H**2*t"
     assert load_step_ratio(problem_from_dict(fsi1), 0.0, 0.5, 1.0) == 0.0
+
+
+def test_convergence_is_predicted_from_the_increment_or_a_passed_residual():
+    """The matrix is left out of an assembly (``_likely_converged``) where the last update
+    passed the increment test or the last residual passed its test; not after a layout change,
+    before the minimum iteration count, or with neither."""
+    from fsci.solver.newton import _likely_converged
+
+    settings = SolverSettings()
+    small = {"velocity": 0.1 * settings.tol_increment}
+    large = {"velocity": 10.0 * settings.tol_increment}
+    system = object()  # no steady-flow condition
+    assert _likely_converged(system, settings, 3, small, False, False)
+    assert _likely_converged(system, settings, 3, large, False, True)
+    assert not _likely_converged(system, settings, 3, large, False, False)
+    assert not _likely_converged(system, settings, 3, None, False, False)
+    assert not _likely_converged(system, settings, 3, small, True, True)
+    assert not _likely_converged(system, settings, settings.min_iterations, small, False, True)
