@@ -201,8 +201,8 @@ class PardisoSolver(LinearSolver):
     def ordering(cls, n: int) -> int:
         """PARDISO's fill-reducing ordering (``iparm(2)``) for ``n`` unknowns: minimum degree (0)
         below :attr:`LARGE`, METIS nested dissection (2) from there on. On the systems of the
-        built-in cases up to 94k unknowns minimum degree analyses in 0.6-0.75x the time and
-        factorises in 0.75-1.0x (docs/performance.md, "The ordering"); at 113k and 367k METIS
+        built-in cases up to 94k unknowns minimum degree analyses in 0.5-0.8x the time and
+        factorises in 0.7-1.0x (docs/performance.md, "The ordering"); at 113k and 367k METIS
         factorises faster and the factorisation outweighs the analysis."""
         return 0 if n < cls.LARGE else 2
 
