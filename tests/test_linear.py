@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -111,24 +109,3 @@ def test_pardiso_orders_by_size(monkeypatch):
         x = solver.solve(A, b, b"pattern")
         assert solver._ps.iparm[1] == expected and solver.counts["analysis"] == 1
         assert np.linalg.norm(A @ x - b) <= 1e-12 * np.linalg.norm(b)
-
-
-@pytest.mark.skipif("pardiso" not in available_backends() or not os.path.exists("/proc/self/maps"),
-                    reason="PARDISO not available, or no /proc to see the loaded libraries")
-def test_pardiso_shares_the_gnu_openmp_pool_with_the_kernels():
-    """Importing fsci makes MKL run on GNU OpenMP, the runtime of numba's kernels, so that the
-    two share one pool of workers instead of spinning against each other (unless the user chose
-    a threading layer); numpy's BLAS runs one thread."""
-    import subprocess
-    import sys
-
-    code = ("import fsci, numpy as np, scipy.sparse as sp\n"
-            "from fsci.solver.linear import PardisoSolver\n"
-            "A = sp.diags([np.full(30000, 4.0), np.ones(29999)], [0, 1], format='csr')\n"
-            "PardisoSolver().solve(A, np.ones(30000), b'k')\n"
-            "maps = open('/proc/self/maps').read()\n"
-            "import os\n"
-            "print('libmkl_gnu_thread' in maps, 'libmkl_intel_thread' in maps, os.environ['OPENBLAS_NUM_THREADS'])\n")
-    env = {k: v for k, v in os.environ.items() if k not in ("MKL_THREADING_LAYER", "OPENBLAS_NUM_THREADS")}
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
-    assert out.split() == ["True", "False", "1"], out
