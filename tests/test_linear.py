@@ -95,3 +95,17 @@ def test_pardiso_threads_follow_mkl_num_threads(monkeypatch):
     assert solver.threads == (os.cpu_count() or 1)
     monkeypatch.setenv("MKL_NUM_THREADS", "1")
     assert solver.threads == 1
+
+
+@pytest.mark.skipif("pardiso" not in available_backends(), reason="PARDISO not available")
+def test_pardiso_orders_by_size(monkeypatch):
+    """The analysis orders with minimum degree below ``LARGE`` unknowns and with METIS from
+    there on; either ordering solves to round-off."""
+    A = _convection_diffusion(40, 0.5)
+    b = np.random.default_rng(5).standard_normal(A.shape[0])
+    for large, expected in ((A.shape[0] + 1, 0), (A.shape[0], 2)):
+        monkeypatch.setattr(PardisoSolver, "LARGE", large)
+        solver = PardisoSolver()
+        x = solver.solve(A, b, b"pattern")
+        assert solver._ps.iparm[1] == expected and solver.counts["analysis"] == 1
+        assert np.linalg.norm(A @ x - b) <= 1e-12 * np.linalg.norm(b)

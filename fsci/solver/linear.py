@@ -3,8 +3,9 @@
 * :class:`PardisoSolver` (MKL PARDISO through ``pypardiso``): the symbolic analysis (phase 11,
   about as expensive as the numeric factorisation) is reused while the sparsity pattern is
   unchanged; only phase 22 (numeric) and 33 (solve) run. The analysis depends on the pattern
-  only (METIS ordering; value-dependent scaling and matching are off), so reusing it or
-  redoing it gives the same factors — a restarted run is bit-identical to an uninterrupted one
+  only (the fill-reducing ordering, :meth:`PardisoSolver.ordering`; value-dependent scaling
+  and matching are off), so reusing it or redoing it gives the same factors — a restarted run
+  is bit-identical to an uninterrupted one
   (with ``MKL_CBWR=AUTO``, set by ``fsci/__init__.py``). The true residual of every solve is
   checked; an inaccurate solve is repeated once with scaling and matching (robust mode).
 * :class:`SuperLUSolver` (scipy): ``permc_spec="MMD_AT_PLUS_A"``, ``SymmetricMode`` and
@@ -185,7 +186,6 @@ class PardisoSolver(LinearSolver):
         ip = self._ps.iparm
         ip[:] = 0
         ip[0] = 1  # use the values below
-        ip[1] = 2  # METIS nested dissection
         # no iterative refinement unless pivots were perturbed (then MKL does two steps by
         # itself): two steps always tripled the solve phase, and every solve's true residual is
         # checked below anyway
@@ -196,6 +196,16 @@ class PardisoSolver(LinearSolver):
         self._robust = robust
 
     SMALL = 20000  # below this many unknowns one MKL thread is faster (thread start-up dominates)
+    LARGE = 100000  # from this many unknowns on, METIS orders for a cheaper factorisation
+
+    @classmethod
+    def ordering(cls, n: int) -> int:
+        """PARDISO's fill-reducing ordering (``iparm(2)``) for ``n`` unknowns: minimum degree (0)
+        below :attr:`LARGE`, METIS nested dissection (2) from there on. On the systems of the
+        built-in cases up to 94k unknowns minimum degree analyses in 0.6-0.75x the time and
+        factorises in 0.75-1.0x (docs/performance.md, "The ordering"); at 113k and 367k METIS
+        factorises faster and the factorisation outweighs the analysis."""
+        return 0 if n < cls.LARGE else 2
 
     @property
     def threads(self) -> int:
@@ -263,6 +273,7 @@ class PardisoSolver(LinearSolver):
             try:
                 if pattern_key is None or pattern_key != self._key or attempt == 1:
                     t0 = time.perf_counter()
+                    self._ps.iparm[1] = self.ordering(A.shape[0])
                     self._phase(A, b2, 11)
                     self._tick("analysis", t0)
                     self._key = pattern_key
