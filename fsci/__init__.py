@@ -12,6 +12,17 @@ import os as _os
 # on this machine (needed for bit-identical restarts; no measurable cost, docs/performance.md).
 _os.environ.setdefault("MKL_CBWR", "AUTO")
 
+# numpy's BLAS (OpenBLAS) on one thread: its vector operations in fsci (norms, dot products of
+# the Krylov and Newton updates) gain nothing from a second thread, and an idle OpenBLAS worker
+# spins at full load on the core PARDISO's second thread needs (fine stamp: analysis 2x,
+# factorisation 1.15x dearer, docs/performance.md, "numpy's BLAS on one thread"). The variable
+# covers libraries loaded later, threadpoolctl those loaded already; a value the user set stays.
+if "OPENBLAS_NUM_THREADS" not in _os.environ:
+    _os.environ["OPENBLAS_NUM_THREADS"] = "1"
+    from threadpoolctl import ThreadpoolController as _ThreadpoolController
+
+    _ThreadpoolController().select(internal_api="openblas").limit(limits=1)
+
 # compiled kernels are cached per version of the source (numba alone would keep a kernel compiled
 # against an older version of a kernel it calls from another module)
 from fsci.kernel_cache import configure as _configure_kernel_cache  # noqa: E402
