@@ -15,7 +15,8 @@ _os.environ.setdefault("MKL_CBWR", "AUTO")
 # numpy's BLAS (OpenBLAS) on one thread: its vector operations in fsci (norms, dot products of
 # the Krylov and Newton updates) gain nothing from a second thread, and an idle OpenBLAS worker
 # spins at full load on the core PARDISO's second thread needs (fine stamp: analysis 2x,
-# factorisation 1.15x dearer, docs/performance.md, "numpy's BLAS on one thread"). The variable
+# factorisation 1.15x dearer, docs/performance.md, "Minimum degree again, and numpy's BLAS
+# on one thread"; docs/architecture.md, decision 44). The variable
 # covers libraries loaded later, threadpoolctl those loaded already; a value the user set stays.
 if "OPENBLAS_NUM_THREADS" not in _os.environ:
     _os.environ["OPENBLAS_NUM_THREADS"] = "1"

@@ -115,18 +115,19 @@ def test_pardiso_orders_by_size(monkeypatch):
 def test_numpy_blas_runs_on_one_thread_unless_the_user_says(user):
     """Importing fsci after numpy puts numpy's OpenBLAS on one thread (an idle second thread
     spins on the core PARDISO needs); an ``OPENBLAS_NUM_THREADS`` the user set stays."""
+    import json
     import os
     import subprocess
     import sys
 
-    threadpoolctl = pytest.importorskip("threadpoolctl")
+    import threadpoolctl
     env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
     if user is not None:
         env["OPENBLAS_NUM_THREADS"] = user
-    code = ("import numpy, threadpoolctl, fsci; print([p['num_threads'] for p in threadpoolctl.threadpool_info() "
-            "if p['internal_api'] == 'openblas'])")
+    code = ("import json, numpy, threadpoolctl, fsci; print(json.dumps([p['num_threads'] for p in "
+            "threadpoolctl.threadpool_info() if p['internal_api'] == 'openblas']))")
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
-    counts = eval(out)
+    counts = json.loads(out)
     if not counts:
         pytest.skip(f"numpy is not linked to OpenBLAS here (threadpoolctl {threadpoolctl.__version__})")
     assert set(counts) == {1 if user is None else int(user)}
