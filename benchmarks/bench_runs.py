@@ -53,7 +53,7 @@ def run_row(name: str, extra: tuple[str, ...] = ()) -> dict[str, float]:
     wall = time.perf_counter() - t0
     lin = sim.linear
     return {"wall": wall, "steps": sim.step, "newton": sim.newton_total, "unknowns": sim.system.layout.n_dofs,
-            "factorizations": lin.counts["factorization"], "reused": lin.counts.get("reused", 0),
+            "factorizations": lin.counts["factorization"], "analyses": lin.counts["analysis"], "reused": lin.counts.get("reused", 0),
             "krylov": lin.counts.get("krylov", 0), **{k: v for k, v in sim.system.timings.items()},
             **{k: v for k, v in lin.timings.items()},
             "peak_rss_MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,

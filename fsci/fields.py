@@ -355,6 +355,28 @@ class FluidField:
     def blocks(self) -> list[np.ndarray]:
         return [self.gnode[self.int_conn], self.gnode[self.face_nodes]]
 
+    def nodes_around(self, nodes: np.ndarray) -> np.ndarray:
+        """The global nodes of every integration part touching the global fluid nodes ``nodes``
+        ``(k, m)`` (entries ``< 0`` none): ``(k, p)``, each node once per row, the rest -1. For nodes of a cell, the nodes of the cell's neighbours in its fluid
+        region."""
+        G = self.gnode[self.int_conn]
+        n = int(G.max(initial=-1)) + 1
+        flat = G.ravel()
+        part = np.repeat(np.arange(len(G)), G.shape[1])
+        ok = flat >= 0
+        order = np.argsort(flat[ok], kind="stable")
+        flat, part = flat[ok][order], part[ok][order]
+        count = np.bincount(flat, minlength=n)
+        table = np.full((n, int(count.max(initial=1))), -1, dtype=np.int64)  # the parts of a node
+        table[flat, np.arange(len(flat)) - np.repeat(np.cumsum(count) - count, count)] = part
+        q = np.asarray(nodes, dtype=np.int64).reshape(len(nodes), -1)
+        fluid = (q >= 0) & (q < n)
+        parts = np.where(fluid[..., None], table[np.where(fluid, q, 0)], -1)
+        out = np.where(parts[..., None] >= 0, G[np.maximum(parts, 0)], -1).reshape(len(q), -1)
+        out.sort(axis=1)
+        out[:, 1:][out[:, 1:] == out[:, :-1]] = -1
+        return out
+
     def evaluate(self, points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Velocity ``(k, 2)`` and pressure at points inside given background cells."""
         from fsci.fem.q1 import q1_eval

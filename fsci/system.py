@@ -18,7 +18,7 @@ from fsci.assembly import Assembly, ResidualAssembly
 from fsci.coupling import CouplingTerm
 from fsci.cut.state import CutState
 from fsci.errors import GeometryError, InputError, SolverError
-from fsci.fem.sparse import DofLayout, PatternCache
+from fsci.fem.sparse import DofLayout, Pattern, PatternCache
 from fsci.fields import FLUID_VALUES, FluidField, SolidField, StepContext
 from fsci.geometry.outlines import Outline, body_polygon, check_in_box, warn_if_thin
 from fsci.problem import Problem
@@ -43,6 +43,7 @@ class System:
         self.solids = [SolidField(b, i) for i, b in enumerate(problem.bodies)]
         self.fluid = FluidField(problem.fluid) if problem.fluid is not None else None
         self.patterns = PatternCache()
+        self._pattern: Pattern | None = None  # the sparsity pattern matrices are assembled in (see pattern)
         self.extra_terms: list = []  # the coupling term (FSI, contact, FSCI)
         self.interface_edges = [self._interface_edges(s) for s in self.solids]
         self._loops = [s.mesh.boundary_loops() for s in self.solids]
@@ -417,10 +418,35 @@ class System:
             self.fluid.end_step(ctx)
 
     # ----------------------------------------------------------------- assembly
+    def pattern(self) -> Pattern:
+        """The sparsity pattern to assemble the current state's matrix in.
+
+        While the bodies move, the coupling's node pairs change with the cut from one Newton
+        iteration (and step) to the next, and every new pattern costs a new symbolic analysis
+        of the linear solver (FSI1 at m = 12: 0.3-0.55 s each) and ends the reuse of its
+        factors. So a new pattern also holds the pairs the interface may reach by moving up
+        to a cell (the coupling's ``reach``), and later matrices are assembled into it (explicit
+        zeros where their terms couple nothing) as long as every pair of theirs is in it and
+        the dof layout is the same (docs/architecture.md, decision 45). The pattern kept is
+        that of the last matrix Newton solved with (:meth:`keep_pattern`; a matrix assembled and
+        not used changes nothing), and it is part of the state (:func:`snapshot`), so a
+        restarted run is bit-identical to an uninterrupted one (decision 15)."""
+        blocks = self.blocks()
+        p = self._pattern
+        if p is not None and np.array_equal(p.layout.ndof, self.layout.ndof) and p.covers(blocks):
+            return p
+        reach = [r for term in self.extra_terms for r in term.reach(self)] if self.moving() else []
+        return self.patterns.get(self.layout, blocks, reach)
+
+    def keep_pattern(self, pattern: Pattern) -> None:
+        """``pattern`` is that of a matrix Newton solved with: later matrices go into it while
+        they fit (:meth:`pattern`)."""
+        self._pattern = pattern
+
     def assemble(self, ctx: StepContext, want_matrix: bool = True, dirichlet: bool = True) -> Assembly:
         """Residual (and Jacobian) of all terms at the current state."""
         t0 = time.perf_counter()
-        pattern = self.patterns.get(self.layout, self.blocks()) if want_matrix else None
+        pattern = self.pattern() if want_matrix else None
         asm = Assembly(self.layout, pattern, want_matrix) if want_matrix else ResidualAssembly(self.layout)
         for s in self.solids:
             if s.has_dofs:
@@ -450,6 +476,8 @@ def snapshot(system: System) -> dict[str, np.ndarray]:
         f = system.fluid
         for k in FLUID_STATE:
             state[f"fluid.{k}"] = getattr(f, k).copy()
+    if system._pattern is not None:  # the matrices' sparsity pattern (never changed in place)
+        state["pattern.nptr"], state["pattern.nbr"] = system._pattern.nptr, system._pattern.nbr
     return state
 
 
@@ -470,3 +498,8 @@ def restore(system: System, state: dict[str, np.ndarray]) -> None:
             setattr(f, k, state.get(f"fluid.{k}", default).copy())
         if not np.array_equal(old_active, f.active):
             system.build_layout()
+    p = system._pattern
+    if "pattern.nbr" not in state or len(state["pattern.nptr"]) != system.layout.n_nodes + 1:
+        system._pattern = None  # a checkpoint written before patterns were part of the state
+    elif p is None or p.nbr is not state["pattern.nbr"]:
+        system._pattern = Pattern.from_graph(system.layout, state["pattern.nptr"], state["pattern.nbr"])

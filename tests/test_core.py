@@ -72,6 +72,35 @@ def test_pattern_assembly_equals_dense_assembly():
     assert np.array_equal(pat.indices[diag], np.arange(lay.n_dofs))
 
 
+def test_pattern_reach_couples_only_across_its_two_groups_and_covers_what_it_holds():
+    """A pattern with a reach block ``(A, B)`` holds every pair of a node of ``A[e]`` with one
+    of ``B[e]`` (both ways) and no pair inside ``A[e]`` or ``B[e]``; :meth:`Pattern.covers` is
+    True for blocks of such pairs and False for one more pair, whose positions are refused;
+    the pattern rebuilt from its node graph is the same pattern."""
+    lay = DofLayout(np.array([2, 2, 3, 3, 3, 3]))
+    pat = Pattern(lay, [np.array([[0, 1]])], reach=[(np.array([[0, -1]]), np.array([[2, 3]]))])
+    pairs = {(a, int(b)) for a in range(6) for b in pat.nbr[pat.nptr[a]:pat.nptr[a + 1]]}
+    assert pairs == {(a, a) for a in range(6)} | {(0, 1), (1, 0), (0, 2), (2, 0), (0, 3), (3, 0)}
+    assert pat.covers([np.array([[0, 2], [3, 0], [1, -1]])])
+    assert not pat.covers([np.array([[2, 3]])])  # inside one group
+    assert not pat.covers([np.array([[1, 2]])])  # a node not in the reach row
+    with pytest.raises(ValueError, match="not in the sparsity pattern"):
+        pat.positions(np.array([[1, 2]]))
+    again = Pattern.from_graph(lay, pat.nptr, pat.nbr)
+    assert again.key == pat.key
+    assert np.array_equal(again.indptr, pat.indptr) and np.array_equal(again.indices, pat.indices)
+    # a matrix assembled into the larger pattern equals the one of its own pattern
+    conn = np.array([[0, 2]])
+    own = Pattern(lay, [conn])
+    K, R = np.arange(25.0).reshape(5, 5), np.ones(5)
+    mats = []
+    for p in (own, pat):
+        data, rhs = np.zeros(p.nnz), np.zeros(lay.n_dofs)
+        add_local(data, rhs, p.row_base, p.row_len, lay.start, lay.ndof, conn[0], p.positions(conn)[0], K, R, True)
+        mats.append(p.matrix(data).toarray())
+    assert np.array_equal(mats[0], mats[1])
+
+
 def test_diagonal_block_assembly_equals_full_assembly_of_block_diagonal_locals():
     """Element matrices whose node-pair blocks are diagonal (the faces' CIP / ghost penalty)
     over 3-dof nodes: adding only the diagonal entries gives the matrix and residual that

@@ -377,6 +377,29 @@ class _Dense:
         return np.linalg.solve(A, b)
 
 
+def test_the_kept_pattern_spares_analyses_on_a_moving_body(monkeypatch):
+    """The sinking disk (n = 12, 6 steps): with the coupling's reach in the kept sparsity
+    pattern (decision 45) the linear solver analyses one pattern; without it (every new set of
+    coupled node pairs a new pattern) four, and Newton needs more iterations, the factors
+    of a step being dropped at each new pattern."""
+    from fsci.coupling.term import CouplingTerm
+
+    def run():
+        case = get_case("sinking-disk")
+        for o in SINK_SMALL:
+            apply_override(case, o)
+        case["output"] = {"every": 0, "figures": False, "fields": False}
+        sim = Simulation(problem_from_dict(case))
+        sim.run()
+        return sim.linear.counts["analysis"], sim.newton_total
+
+    analyses, newton = run()
+    monkeypatch.setattr(CouplingTerm, "reach", lambda self, system: [])
+    analyses_without, newton_without = run()
+    assert analyses == 1 and analyses_without >= 3, (analyses, analyses_without)
+    assert newton <= newton_without
+
+
 def test_newton_backtracks_from_an_iterate_it_cannot_evaluate():
     """From x = 0.5 the full Newton update of x² = 4 lands at 4.25, which cannot be evaluated;
     half of it (2.375) can, and Newton converges to 2 without cutting the step. With the first

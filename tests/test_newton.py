@@ -229,3 +229,39 @@ def test_convergence_is_predicted_from_the_increment_or_a_passed_residual():
     assert not _likely_converged(system, settings, 3, None, False, False)
     assert not _likely_converged(system, settings, 3, small, True, True)
     assert not _likely_converged(system, settings, settings.min_iterations, small, False, True)
+
+
+class SettlingSystem(OvershootingSystem):
+    """``R(x) = A x − b`` plus round-off-sized noise (1e-12 and 5e-12 in turn, below
+    ``tol_residual``), with a lagged quantity that settles only at the ``settle``-th check: the
+    residual grows and falls within its tolerance for several iterations."""
+
+    def __init__(self, settle: int) -> None:
+        super().__init__(4, 1.0, follows=False)
+        self.calls = 0
+        self.checks = 0
+        self.settle = settle
+
+    def assemble(self, ctx: StepContext, want_matrix: bool = True) -> _Residual:
+        self.calls += 1
+        noise = (1e-12 if self.calls % 2 else 5e-12) * np.ones(len(self.x)) / 2.0
+        return _Residual(self.A @ self.x - self.b + noise, sp.csr_matrix(self.A))
+
+    def lag_settled(self, tol: float) -> bool:
+        self.checks += 1
+        return self.checks >= self.settle
+
+
+def test_round_off_growth_of_a_residual_within_tolerance_does_not_damp():
+    """4C's damping rule multiplies the update by 0.75 when the residual grows; a residual that
+    stays within tol_residual at both iterates and grows is round-off, so the factor stays 1
+    (it slowed FSI1's last iterations)."""
+    system = SettlingSystem(settle=6)
+    lams: list[float] = []
+    settings = SolverSettings(max_iterations=25, tol_residual=1e-10, tol_increment=1e-30)
+    rep = solve_nonlinear(system, StepContext(0.0, 1.0, 1.0, 1.0, True), settings, make_linear_solver("superlu"),
+                          monitor=lambda it, res, lam: lams.append(lam))
+    assert rep.converged and rep.iterations >= 5
+    grew = [i for i in range(1, len(rep.residuals)) if rep.residuals[i] > rep.residuals[i - 1]]
+    assert grew  # the noise made the residual grow at least once
+    assert lams == [1.0] * len(lams)

@@ -478,7 +478,7 @@ def add_bulk_shape_derivative(K, z, ip, fp, Xo, Xm, Xe, Vo, Vb, bq, fprm, gp, gw
 
 
 _SLOT_OFFSET = np.array([0, 2, 4, 6, 8, 10, 12, 14, 16, 19, 22, 25, 28, 31, 34, 37, 40, 42, 44, 46, 48, 50, 52, 54])
-_SLOT_NDOF = np.array([2, 2, 2, 2, 2, 2, 2, 2, 3, 3, 3, 3, 3, 3, 3, 3, 2, 2, 2, 2, 2, 2, 2, 2])
+SLOT_NDOF = np.array([2, 2, 2, 2, 2, 2, 2, 2, 3, 3, 3, 3, 3, 3, 3, 3, 2, 2, 2, 2, 2, 2, 2, 2])
 
 
 def assemble_pieces(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_all, vq_all, kap_all, Xe_all,
@@ -524,7 +524,7 @@ def _live_counts(conn):
     for k in range(conn.shape[0]):
         for slot in range(N_SLOTS):
             if conn[k, slot] >= 0:
-                out[k] += _SLOT_NDOF[slot]
+                out[k] += SLOT_NDOF[slot]
     return out
 
 
@@ -534,7 +534,7 @@ def _live_columns(conn_k, idx):
     m = 0
     for slot in range(N_SLOTS):
         if conn_k[slot] >= 0:
-            for c in range(_SLOT_NDOF[slot]):
+            for c in range(SLOT_NDOF[slot]):
                 idx[m] = _SLOT_OFFSET[slot] + c
                 m += 1
     return m

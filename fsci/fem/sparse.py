@@ -10,6 +10,10 @@ of one node then share the same column list, and the position of entry
 
 Element kernels receive ``col_off`` for their node pairs (computed once per connectivity and
 pattern) and add straight into the CSR data array: no COO triplets, no sorting per assembly.
+
+A pattern may hold more pairs than the terms couple (``reach``: pairs a moving interface may
+take on in later Newton iterations); the matrix then stores explicit zeros there, and
+:meth:`Pattern.covers` tells whether a set of blocks fits into it.
 """
 
 from __future__ import annotations
@@ -49,6 +53,41 @@ def _fill_pairs(conn, ptr, fill, buf):
                 if b >= 0:
                     buf[ptr[a] + fill[a]] = b
                     fill[a] += 1
+
+
+@njit(cache=True)
+def _count_bipartite(A, B, counts):
+    for e in range(A.shape[0]):
+        na = 0
+        nb = 0
+        for i in range(A.shape[1]):
+            if A[e, i] >= 0:
+                na += 1
+        for j in range(B.shape[1]):
+            if B[e, j] >= 0:
+                nb += 1
+        for i in range(A.shape[1]):
+            if A[e, i] >= 0:
+                counts[A[e, i]] += nb
+        for j in range(B.shape[1]):
+            if B[e, j] >= 0:
+                counts[B[e, j]] += na
+
+
+@njit(cache=True)
+def _fill_bipartite(A, B, ptr, fill, buf):
+    for e in range(A.shape[0]):
+        for i in range(A.shape[1]):
+            a = A[e, i]
+            if a < 0:
+                continue
+            for j in range(B.shape[1]):
+                b = B[e, j]
+                if b >= 0:
+                    buf[ptr[a] + fill[a]] = b
+                    fill[a] += 1
+                    buf[ptr[b] + fill[b]] = a
+                    fill[b] += 1
 
 
 @njit(cache=True)
@@ -109,8 +148,10 @@ def _expand(nptr, nbr, ndof, start):
 
 @njit(cache=True)
 def _positions(conn, nptr, nbr, col_off):
+    """Column offsets of the node pairs of ``conn`` and the number of pairs not in the pattern."""
     n_e, m = conn.shape
     out = np.full((n_e, m, m), -1, dtype=np.int32)
+    missing = 0
     for e in range(n_e):
         for i in range(m):
             a = conn[e, i]
@@ -129,8 +170,11 @@ def _positions(conn, nptr, nbr, col_off):
                         l = mid + 1
                     else:
                         r = mid
-                out[e, i, j] = col_off[l]
-    return out
+                if l < hi and nbr[l] == b:
+                    out[e, i, j] = col_off[l]
+                else:
+                    missing += 1
+    return out, missing
 
 
 @njit(cache=True)
@@ -206,43 +250,80 @@ class Pattern:
         Connectivity arrays ``(n_e, m)`` of global node ids; every node pair inside one row is
         coupled. Entries ``< 0`` are ignored. Every node is coupled with itself, so diagonals
         are always stored.
+    reach
+        Pairs of arrays ``(A, B)`` with the same number of rows: every node of ``A[e]`` is
+        coupled with every node of ``B[e]`` (both ways; not the nodes of ``A[e]`` among
+        themselves, nor those of ``B[e]``).
     """
 
-    def __init__(self, layout: DofLayout, blocks: list[np.ndarray]) -> None:
+    def __init__(self, layout: DofLayout, blocks: list[np.ndarray],
+                 reach: list[tuple[np.ndarray, np.ndarray]] = ()) -> None:
         self.layout = layout
         n = layout.n_nodes
         diag = np.arange(n, dtype=np.int64)[:, None]
         blocks = [diag] + [np.ascontiguousarray(b, dtype=np.int64) for b in blocks if len(b)]
+        reach = [(np.ascontiguousarray(a, dtype=np.int64), np.ascontiguousarray(b, dtype=np.int64))
+                 for a, b in reach if len(a)]
         counts = np.zeros(n, dtype=np.int64)
         for b in blocks:
             _count_pairs(b, counts)
+        for a, b in reach:
+            _count_bipartite(a, b, counts)
         ptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
         buf = np.empty(ptr[-1], dtype=np.int64)
         fill = np.zeros(n, dtype=np.int64)
         for b in blocks:
             _fill_pairs(b, ptr, fill, buf)
-        self.nptr, self.nbr = _unique_rows(ptr, buf, n)
-        self.row_len, self.col_off, self.indptr, self.indices, self.row_base = _expand(
-            self.nptr, self.nbr, layout.ndof, layout.start
-        )
-        self.key = hashlib.sha1(self.nptr.tobytes() + self.nbr.tobytes() + layout.ndof.tobytes()).digest()
-        self._pos_cache: dict[bytes, np.ndarray] = {}
+        for a, b in reach:
+            _fill_bipartite(a, b, ptr, fill, buf)
+        self._expand(*_unique_rows(ptr, buf, n))
+
+    @classmethod
+    def from_graph(cls, layout: DofLayout, nptr: np.ndarray, nbr: np.ndarray) -> "Pattern":
+        """The pattern of a node graph (:attr:`nptr`, :attr:`nbr` of another pattern: each
+        node's sorted neighbours) on ``layout``."""
+        if len(nptr) != layout.n_nodes + 1:
+            raise ValueError(f"a node graph of {len(nptr) - 1} nodes on a layout of {layout.n_nodes}")
+        pat = cls.__new__(cls)
+        pat.layout = layout
+        pat._expand(np.ascontiguousarray(nptr, dtype=np.int64), np.ascontiguousarray(nbr, dtype=np.int64))
+        return pat
+
+    def _expand(self, nptr: np.ndarray, nbr: np.ndarray) -> None:
+        self.nptr, self.nbr = nptr, nbr
+        lay = self.layout
+        self.row_len, self.col_off, self.indptr, self.indices, self.row_base = _expand(nptr, nbr, lay.ndof, lay.start)
+        self.key = hashlib.sha1(nptr.tobytes() + nbr.tobytes() + lay.ndof.tobytes()).digest()
+        self._pos_cache: dict[bytes, np.ndarray | None] = {}  # None: the connectivity does not fit
         self._diag: np.ndarray | None = None
 
     @property
     def nnz(self) -> int:
         return int(self.indptr[-1])
 
+    def _lookup(self, conn: np.ndarray) -> np.ndarray | None:
+        """Column offsets of the node pairs of ``conn``, None if one is not in the pattern (cached)."""
+        key = _conn_key(conn)
+        if key in self._pos_cache:
+            return self._pos_cache[key]
+        pos, missing = _positions(np.ascontiguousarray(conn, dtype=np.int64), self.nptr, self.nbr, self.col_off)
+        # a pattern can serve many steps: bounded by size too (a fluid's face positions are
+        # tens of MB at 100k unknowns)
+        if len(self._pos_cache) > 64 or sum(p.nbytes for p in self._pos_cache.values() if p is not None) > 2 ** 28:
+            self._pos_cache.clear()
+        self._pos_cache[key] = pos = pos if missing == 0 else None
+        return pos
+
     def positions(self, conn: np.ndarray) -> np.ndarray:
         """Column offsets ``(n_e, m, m)`` of node pairs of a connectivity (cached)."""
-        key = _conn_key(conn)
-        pos = self._pos_cache.get(key)
+        pos = self._lookup(conn)
         if pos is None:
-            pos = _positions(np.ascontiguousarray(conn, dtype=np.int64), self.nptr, self.nbr, self.col_off)
-            if len(self._pos_cache) > 64:
-                self._pos_cache.clear()
-            self._pos_cache[key] = pos
+            raise ValueError("a node pair of the connectivity is not in the sparsity pattern")
         return pos
+
+    def covers(self, blocks: list[np.ndarray]) -> bool:
+        """Whether every node pair of ``blocks`` (as in the constructor) is in the pattern."""
+        return all(self._lookup(b) is not None for b in blocks if len(b))
 
     def diagonal_positions(self) -> np.ndarray:
         """Index into the data array of every diagonal entry ``(n_dofs,)``."""
@@ -272,14 +353,17 @@ class PatternCache:
         self.size = size
         self._store: dict[bytes, Pattern] = {}
 
-    def get(self, layout: DofLayout, blocks: list[np.ndarray]) -> Pattern:
+    def get(self, layout: DofLayout, blocks: list[np.ndarray],
+            reach: list[tuple[np.ndarray, np.ndarray]] = ()) -> Pattern:
         h = hashlib.sha1(layout.signature())
         for b in blocks:
             h.update(_conn_key(b))
+        for a, b in reach:
+            h.update(b"reach" + _conn_key(a) + _conn_key(b))
         key = h.digest()
         pat = self._store.get(key)
         if pat is None:
-            pat = Pattern(layout, blocks)
+            pat = Pattern(layout, blocks, reach)
             if len(self._store) >= self.size:
                 self._store.pop(next(iter(self._store)))
             self._store[key] = pat
