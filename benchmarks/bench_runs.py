@@ -90,14 +90,14 @@ def main(argv: list[str] | None = None) -> None:
                     help="override for every row (repeatable), e.g. fluid.stabilization.scheme=residual")
     args = ap.parse_args(argv)
     print("| run | unknowns | steps | Newton (per step) | factorisations (reused) | cut | assembly | analysis "
-          "| factor | solve | wall [s] | before [s] | speed-up | peak RSS [MB] | RSS growth [MB/1000 steps] |")
+          "(count) | factor | solve | wall [s] | before [s] | speed-up | peak RSS [MB] | RSS growth [MB/1000 steps] |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in args.rows:
         with ProcessPoolExecutor(max_workers=1) as pool:  # a fresh process per row: its own peak RSS
             r = pool.submit(run_row, name, tuple(args.set)).result()
         before = ROWS[name][2]
         print(f"| {name} | {r['unknowns']} | {r['steps']} | {r['newton']} ({r['newton'] / max(r['steps'], 1):.2f}) "
-              f"| {r['factorizations']} ({r['reused']}) | {r['cut']:.1f} | {r['assembly']:.1f} | {r['analysis']:.1f} "
+              f"| {r['factorizations']} ({r['reused']}) | {r['cut']:.1f} | {r['assembly']:.1f} | {r['analysis']:.1f} ({r['analyses']}) "
               f"| {r['factorization']:.1f} | {r['solve']:.1f} | {r['wall']:.0f} | {before:.0f} "
               f"| {before / r['wall']:.2f} | {r['peak_rss_MB']:.0f} | {r['growth_MB_per_1000']:.2f} |", flush=True)
         if args.rss:

@@ -256,6 +256,8 @@ class Pattern:
         themselves, nor those of ``B[e]``).
     """
 
+    POSITIONS_KEPT = 16  # connectivities whose positions are cached
+
     def __init__(self, layout: DofLayout, blocks: list[np.ndarray],
                  reach: list[tuple[np.ndarray, np.ndarray]] = ()) -> None:
         self.layout = layout
@@ -304,14 +306,16 @@ class Pattern:
     def _lookup(self, conn: np.ndarray) -> np.ndarray | None:
         """Column offsets of the node pairs of ``conn``, None if one is not in the pattern (cached)."""
         key = _conn_key(conn)
-        if key in self._pos_cache:
-            return self._pos_cache[key]
+        cache = self._pos_cache
+        if key in cache:
+            cache[key] = pos = cache.pop(key)  # the most recently used last
+            return pos
         pos, missing = _positions(np.ascontiguousarray(conn, dtype=np.int64), self.nptr, self.nbr, self.col_off)
-        # a pattern can serve many steps: bounded by size too (a fluid's face positions are
-        # tens of MB at 100k unknowns)
-        if len(self._pos_cache) > 64 or sum(p.nbytes for p in self._pos_cache.values() if p is not None) > 2 ** 28:
-            self._pos_cache.clear()
-        self._pos_cache[key] = pos = pos if missing == 0 else None
+        # a pattern can serve many steps, each with new coupling connectivities: the least
+        # recently used go (an assembly looks up about five)
+        while len(cache) >= self.POSITIONS_KEPT:
+            cache.pop(next(iter(cache)))
+        cache[key] = pos = pos if missing == 0 else None
         return pos
 
     def positions(self, conn: np.ndarray) -> np.ndarray:
