@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from fsci.assembly import Assembly
@@ -23,6 +24,9 @@ from fsci.problem import Body, Fluid
 
 # the fluid's nodal arrays, carried from one cut's virtual nodes to the next and checkpointed
 FLUID_VALUES = ("V", "P", "Vn", "Pn", "Vbar", "Vrate", "Prate")
+# fluid cell parts (or faces) from which their terms are assembled in parallel, block colour by
+# block colour (fewer: one thread; the sums are the same either way)
+PARALLEL_ITEMS = 2000
 
 
 @dataclass
@@ -300,6 +304,7 @@ class FluidField:
         normal_comp = {"left": 0, "right": 0, "bottom": 1, "top": 1}
         self._closed_sides = {d.boundary for d in fluid.dirichlet if d.values[normal_comp[d.boundary]] is not None}
         self.cut = None
+        self._blocks_of: tuple[np.ndarray, np.ndarray] | None = None  # the parts and faces of self._blocks
 
     # ----------------------------------------------------------------- geometry
     def set_cut(self, cut, extend: bool = True) -> bool:
@@ -521,12 +526,21 @@ class FluidField:
         body_force_q = self.body_force_density(ctx)
         conn = self.gnode[self.int_conn]
         Vo = self.Vn if not ctx.static else self.V
-        fk.assemble_fluid_cells(g.xs, g.ys, g.nx, self.int_conn, self.int_cells, self.qptr, self.qx, self.qw,
-                                body_force_q, self.V, self.P, Vo, self.Vbar, self.cell_parameters(ctx), self.gnode,
-                                asm.positions(conn), *tgt)
-        fk.assemble_fluid_faces(g.xs, g.ys, g.nx, self.face_nodes, self.faces, self.ghost_weight, self.Vbar, self.V, self.P,
-                                self.face_parameters(ctx), self.gnode, asm.positions(self.gnode[self.face_nodes]),
-                                *tgt)
+        if self._blocks_of is None or self._blocks_of[0] is not self.int_cells or self._blocks_of[1] is not self.faces:
+            self._blocks = (fk.coloured_blocks(g.cell_ij[self.int_cells]), fk.coloured_blocks(g.cell_ij[self.faces[:, 0]]))
+            self._blocks_of = (self.int_cells, self.faces)
+        cells = (g.xs, g.ys, g.nx, self.int_conn, self.int_cells, self.qptr, self.qx, self.qw, body_force_q, self.V,
+                 self.P, Vo, self.Vbar, self.cell_parameters(ctx), self.gnode, asm.positions(conn), *tgt)
+        faces = (g.xs, g.ys, g.nx, self.face_nodes, self.faces, self.ghost_weight, self.Vbar, self.V, self.P,
+                 self.face_parameters(ctx), self.gnode, asm.positions(self.gnode[self.face_nodes]), *tgt)
+        # the same sums in the same order either way (fsci.physics.fluid.coloured_blocks)
+        for (order, bptr, cptr), args, serial, parallel in (
+                (self._blocks[0], cells, fk.assemble_fluid_cells, fk.assemble_cells_in_parallel),
+                (self._blocks[1], faces, fk.assemble_fluid_faces, fk.assemble_faces_in_parallel)):
+            if len(order) >= PARALLEL_ITEMS and numba.get_num_threads() > 1:
+                parallel(order, bptr, cptr, args)
+            else:
+                serial(order, *args)
         self._assemble_neumann(asm, ctx)
 
     def _assemble_neumann(self, asm: Assembly, ctx: StepContext) -> None:

@@ -31,7 +31,7 @@ problems), so the face terms are linear and their Jacobian is exact.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from fsci.fem.q1 import q1_shape
 from fsci.fem.sparse import add_local
@@ -203,10 +203,11 @@ def cell_density(N, dNx, hx, hy, Ve, Voe, Pe, Vbe, gv, go, prm, b0, b1, sp, out)
 
 
 @njit(cache=True)
-def assemble_fluid_cells(xs, ys, nx, conn, cell_ids, qptr, qx, qw, bq, V, P, Vo, Vbar, prm,
+def assemble_fluid_cells(items, xs, ys, nx, conn, cell_ids, qptr, qx, qw, bq, V, P, Vo, Vbar, prm,
                          gnode, pos, data, rhs, row_base, row_len, start, ndof, want_matrix):
-    """Add the cell terms (:func:`cell_density`) for the integration parts ``k``: background
-    cell ``cell_ids[k]`` with the (virtual) nodes ``conn[k]`` of its fluid piece.
+    """Add the cell terms (:func:`cell_density`) for the integration parts ``k`` in ``items``, in
+    that order: background cell ``cell_ids[k]`` with the (virtual) nodes ``conn[k]`` of its
+    fluid piece.
 
     ``qx[qptr[k]:qptr[k+1]]`` are the physical quadrature points of part ``k`` with
     weights ``qw`` and body force density ``bq`` (already multiplied by rho and time-weighted).
@@ -234,7 +235,7 @@ def assemble_fluid_cells(xs, ys, nx, conn, cell_ids, qptr, qx, qw, bq, V, P, Vo,
     dens = np.empty(12)
     sp = np.zeros(4)
     dR = np.empty((2, 12))  # derivative of the strong momentum residual by the 12 cell unknowns
-    for k in range(len(cell_ids)):
+    for k in items:
         c = cell_ids[k]
         x0, y0, hx, hy = _cell_geometry(xs, ys, nx, c)
         dxy = 1.0 / (hx * hy)
@@ -320,9 +321,10 @@ def _face_map(d, rmap):
 
 
 @njit(cache=True)
-def assemble_fluid_faces(xs, ys, nx, fnodes, faces, ghost_weight, Vbar, V, P, prm, gnode, pos,
+def assemble_fluid_faces(items, xs, ys, nx, fnodes, faces, ghost_weight, Vbar, V, P, prm, gnode, pos,
                          data, rhs, row_base, row_len, start, ndof, want_matrix):
-    """Add CIP (25) and ghost-penalty (26) face terms; ``ghost_weight[f]`` scales the ghost
+    """Add CIP (25) and ghost-penalty (26) face terms of the faces ``f`` in ``items``, in that
+    order; ``ghost_weight[f]`` scales the ghost
     penalty on face ``f`` (0: none; see :meth:`fsci.cut.state.CutState.ghost_weights`),
     ``fnodes[f]`` are the six (virtual) nodes of face ``f``'s two cells."""
     rho = prm[S_RHO]
@@ -338,7 +340,7 @@ def assemble_fluid_faces(xs, ys, nx, fnodes, faces, ghost_weight, Vbar, V, P, pr
     NL = np.empty(4)
     Ke = np.empty((18, 18))
     Re = np.empty(18)
-    for f in range(faces.shape[0]):
+    for f in items:
         cl = faces[f, 0]
         cr = faces[f, 1]
         d = faces[f, 2]
@@ -413,3 +415,47 @@ def assemble_fluid_faces(xs, ys, nx, fnodes, faces, ghost_weight, Vbar, V, P, pr
                         Ke[3 * a + 2, 3 * b + 2] += jj * tau_p
         # n = (1, 0) or (0, 1): the n-n coupling of the divergence jump is within a component
         add_local(data, rhs, row_base, row_len, start, ndof, nodes, pos[f], Ke, Re, want_matrix, True)
+
+
+BLOCK = 8  # cells per side of an assembly block: from 3 on, blocks of one colour share no node (faces included)
+
+
+def coloured_blocks(cell_ij: np.ndarray, block: int = BLOCK) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """An order of items (cell parts or faces) on the cells ``cell_ij`` ``(n, 2)`` (a face: its
+    first cell) for assembly in parallel: square blocks of ``block`` cells, four colours in a
+    2×2 pattern, so that two blocks of one colour are ``block`` cells apart and their items
+    (which touch their cell and its neighbours) share no node.
+
+    Returns
+    -------
+    order, bptr, cptr
+        Items block by block (in their own order within a block), colour by colour; block
+        ``b`` holds ``order[bptr[b]:bptr[b+1]]``, colour ``c`` the blocks ``cptr[c]:cptr[c+1]``.
+    """
+    b = np.asarray(cell_ij, dtype=np.int64).reshape(-1, 2) // block
+    nbx = int(b[:, 0].max(initial=0)) + 1
+    colour = (b[:, 0] % 2) + 2 * (b[:, 1] % 2)
+    key = colour * (nbx * (int(b[:, 1].max(initial=0)) + 1)) + b[:, 1] * nbx + b[:, 0]
+    order = np.argsort(key, kind="stable")
+    keys, first = np.unique(key[order], return_index=True)
+    bptr = np.append(first, len(order)).astype(np.int64)
+    cptr = np.searchsorted(colour[order][first], np.arange(5)).astype(np.int64)
+    return order.astype(np.int64), bptr, cptr
+
+
+@njit(cache=True, parallel=True)
+def assemble_cells_in_parallel(order, bptr, cptr, args):
+    """:func:`assemble_fluid_cells` (arguments ``args`` after ``items``) block by block, the
+    blocks of one colour in parallel (:func:`coloured_blocks`): every entry gets its terms in
+    the order of ``order`` whatever the number of threads, as in one serial call on it."""
+    for c in range(4):
+        for b in prange(cptr[c], cptr[c + 1]):
+            assemble_fluid_cells(order[bptr[b]:bptr[b + 1]], *args)
+
+
+@njit(cache=True, parallel=True)
+def assemble_faces_in_parallel(order, bptr, cptr, args):
+    """:func:`assemble_fluid_faces` as :func:`assemble_cells_in_parallel`."""
+    for c in range(4):
+        for b in prange(cptr[c], cptr[c + 1]):
+            assemble_fluid_faces(order[bptr[b]:bptr[b + 1]], *args)
