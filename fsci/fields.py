@@ -362,8 +362,8 @@ class FluidField:
 
     def nodes_around(self, nodes: np.ndarray) -> np.ndarray:
         """The global nodes of every integration part touching the global fluid nodes ``nodes``
-        ``(k, m)`` (entries ``< 0`` none): ``(k, p)``, each node once per row, the rest -1. For nodes of a cell, the nodes of the cell's neighbours in its fluid
-        region."""
+        ``(k, m)`` (entries ``< 0`` none): ``(k, p)``, each node once per row, the rest -1. For
+        the nodes of a cell: the nodes of the cell and its neighbours in its fluid region."""
         G = self.gnode[self.int_conn]
         n = int(G.max(initial=-1)) + 1
         flat = G.ravel()

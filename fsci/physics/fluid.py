@@ -417,14 +417,14 @@ def assemble_fluid_faces(items, xs, ys, nx, fnodes, faces, ghost_weight, Vbar, V
         add_local(data, rhs, row_base, row_len, start, ndof, nodes, pos[f], Ke, Re, want_matrix, True)
 
 
-BLOCK = 8  # cells per side of an assembly block: from 3 on, blocks of one colour share no node (faces included)
+BLOCK = 8  # cells per side of an assembly block (from 2 on, blocks of one colour share no node)
 
 
 def coloured_blocks(cell_ij: np.ndarray, block: int = BLOCK) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """An order of items (cell parts or faces) on the cells ``cell_ij`` ``(n, 2)`` (a face: its
-    first cell) for assembly in parallel: square blocks of ``block`` cells, four colours in a
-    2×2 pattern, so that two blocks of one colour are ``block`` cells apart and their items
-    (which touch their cell and its neighbours) share no node.
+    first cell, the left or lower one) for assembly in parallel: square blocks of ``block``
+    cells, four colours in a 2×2 pattern, so that two blocks of one colour are ``block`` cells
+    apart and their items (a part touches its cell, a face also the next cell) share no node.
 
     Returns
     -------
