@@ -500,6 +500,6 @@ def restore(system: System, state: dict[str, np.ndarray]) -> None:
             system.build_layout()
     p = system._pattern
     if "pattern.nbr" not in state or len(state["pattern.nptr"]) != system.layout.n_nodes + 1:
-        system._pattern = None  # a checkpoint written before patterns were part of the state
+        system._pattern = None  # none kept, or a checkpoint written before patterns were in the state
     elif p is None or p.nbr is not state["pattern.nbr"]:
         system._pattern = Pattern.from_graph(system.layout, state["pattern.nptr"], state["pattern.nbr"])

@@ -604,11 +604,11 @@ class CouplingTerm:
 
     def reach(self, system) -> list[tuple[np.ndarray, np.ndarray]]:
         """Node pairs the pieces may couple once the bodies moved by up to a cell: every body
-        node of a piece with the nodes of the fluid parts around the piece's cells (the
-        pattern of a step, :meth:`fsci.system.System.assemble`)."""
+        node of a piece with the nodes of the fluid parts around the piece's cells (the kept
+        sparsity pattern, :meth:`fsci.system.System.pattern`)."""
         if system.fluid is None:
             return []
-        conn = self._current(system, getattr(system, "ctx", None) or StepContext(0.0, 1.0, 1.0, 1.0, True))["conn"]
+        conn, = self.blocks(system)
         fluid = tk.SLOT_NDOF == 3
         return [(conn[:, ~fluid], system.fluid.nodes_around(conn[:, fluid]))]
 
