@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fsci.cut.state import is_moving_end
+from fsci.cut.state import END_NODE0, is_moving_end
 from fsci.geometry.search import Surface, find_pieces
 
 
@@ -40,15 +40,14 @@ class CouplingPieces:
     s1: np.ndarray
     d0: np.ndarray  # end descriptors: -1 fixed, 0/1 projection of the opposite segment's node,
     d1: np.ndarray  # 2/3 on the grid line x = c / y = c (fsci.cut.state.END_X, END_Y), 4-6 where the
-    # edge crosses another body's boundary edge c or its closed film's line (fsci.cut.state.MOVING_ENDS)
-    c0: np.ndarray  # grid-line coordinate of an end of kind 2/3, that edge of kind 4-6
+    # edge crosses another body's boundary edge c or its closed film's line (fsci.cut.state.MOVING_ENDS),
+    # 7/8 projection of node 0/1 of coupling edge c, not the opposite segment (END_NODE0/1)
+    c0: np.ndarray  # grid-line coordinate of an end of kind 2/3, that edge of kind 4-8
     c1: np.ndarray
     cell: np.ndarray  # fluid part of the piece: cell + n_cells × fluid piece (CutState.part_conn; -1: none)
     fs: np.ndarray  # bounds the physical fluid (Γ^FS)
     opp_body: np.ndarray  # body of the opposite segment (-1: none, g_n = ∞)
     opp_edge: np.ndarray  # its index in the opposite body's coupling edges
-    end_body: np.ndarray  # a piece without one that ends where the node of an opposite segment
-    end_edge: np.ndarray  # projects (next to a piece with it): that segment (-1: none)
     ext_edge: np.ndarray  # extension point: edge of the same body (-1: none)
     ext_s: np.ndarray  # and its parameter on that edge
     ext_cell: np.ndarray  # fluid part on the fluid side of the extension point
@@ -106,26 +105,44 @@ def _search(boundaries: list[BoundaryOf], radius: float, self_contact: bool, spl
     return out
 
 
-def _merge(base: tuple[np.ndarray, ...], contact: tuple[np.ndarray, ...] | None) -> np.ndarray:
+def _merge(base: tuple[np.ndarray, ...], contact: tuple[np.ndarray, ...] | None,
+           edge_offset: np.ndarray) -> np.ndarray:
     """Split the base pieces of one body at the ends of its contact pieces and attach the
     opposite segment covering each sub-piece. Rows: (edge, s0, s1, d0, d1, c0, c1, cell, fs,
-    opposite body, opposite edge, end body, end edge).
+    opposite body, opposite edge). ``edge_offset[b]``: index of body b's first coupling edge
+    among all bodies' coupling edges.
 
     Where an opposite node projects (Remark 9) the pieces on both sides end at the projection,
-    moving with the unknowns: a piece without an opposite segment there takes the neighbour's
-    (end body, end edge) for the geometry of that end. Both sides then move together, so the
-    pieces still tile the edge (on Γ^FS: the fluid boundary of the cut, discrete mass balance
-    (46)), and the Jacobian has the motion of the split, across which the traction can jump
-    (the slip law (40) of a gap on one side, none on the other)."""
+    moving with the unknowns: the piece whose opposite segment has the node as ``d`` = 0/1, a
+    piece on the other side with another opposite segment (the opposite surface ends at the
+    node: a tip) or none as ``END_NODE0/1`` of that segment. Both sides then move together, so
+    the pieces still tile the edge (on Γ^FS: the fluid boundary of the cut, discrete mass
+    balance (46)), and the Jacobian has the motion of the split, across which the traction can
+    jump (the slip law (40) of one gap on one side, of another or none on the other)."""
     e, s0, s1, k0, l0, k1, l1, cell, fs = base
     none = np.full(len(e), -1.0)
-    plain = np.column_stack([e, s0, s1, k0, k1, l0, l1, cell, fs, none, none, none, none]).astype(float)
+    plain = np.column_stack([e, s0, s1, k0, k1, l0, l1, cell, fs, none, none]).astype(float)
     if contact is None:  # every piece as it is
         return plain
     by_edge: dict[int, list[int]] = {}
     ce, ob, oe, c0, c1, cd0, cd1 = contact
     for j in range(len(ce)):
         by_edge.setdefault(int(ce[j]), []).append(j)
+
+    def split_end(v: float, j: int, cand: list[int], start: bool) -> tuple[int, float]:
+        """Descriptor and coordinate of the end at split ``v`` of a sub-piece covered by contact
+        piece ``j`` (-1: none): its own opposite node's projection, else one of a neighbouring
+        contact piece that ends there, else fixed."""
+        if j >= 0:
+            own, d = (c0[j], cd0[j]) if start else (c1[j], cd1[j])
+            if abs(v - own) <= 1e-14 and d >= 0:
+                return int(d), 0.0
+        for i in cand:
+            other, d = (c1[i], cd1[i]) if start else (c0[i], cd0[i])
+            if i != j and abs(v - other) <= 1e-14 and d >= 0:
+                return END_NODE0 + int(d), float(edge_offset[ob[i]] + oe[i])
+        return -1, 0.0
+
     blocks, start = [], 0  # runs of pieces without contact kept as they are, in order
     for k in np.nonzero(np.isin(e, ce))[0].tolist():
         blocks.append(plain[start:k])
@@ -141,27 +158,11 @@ def _merge(base: tuple[np.ndarray, ...], contact: tuple[np.ndarray, ...] | None)
             j = hit[0] if hit else -1
             # an end is the base piece's end (fixed, on a grid line or another body's edge), or
             # where an opposite node projects (Remark 9, moving with the unknowns)
-            geo = -1  # contact piece whose opposite segment gives a piece without one its end
-            dl, cl = (k0[k], l0[k]) if lo == s0[k] else (-1, 0.0)
-            if lo != s0[k]:
-                if j >= 0 and abs(lo - c0[j]) <= 1e-14:
-                    dl = cd0[j]
-                elif j < 0:
-                    nb = [i for i in cand if abs(lo - c1[i]) <= 1e-14 and cd1[i] >= 0]
-                    if nb:
-                        geo, dl = nb[0], cd1[nb[0]]
-            dh, ch = (k1[k], l1[k]) if hi == s1[k] else (-1, 0.0)
-            if hi != s1[k]:
-                if j >= 0 and abs(hi - c1[j]) <= 1e-14:
-                    dh = cd1[j]
-                elif j < 0:
-                    nb = [i for i in cand if abs(hi - c0[i]) <= 1e-14 and cd0[i] >= 0
-                          and (geo < 0 or (ob[i], oe[i]) == (ob[geo], oe[geo]))]
-                    if nb:
-                        geo, dh = nb[0], cd0[nb[0]]
+            dl, cl = (k0[k], l0[k]) if lo == s0[k] else split_end(lo, j, cand, True)
+            dh, ch = (k1[k], l1[k]) if hi == s1[k] else split_end(hi, j, cand, False)
             rows.append((e[k], lo, hi, dl, dh, cl, ch, cell[k], fs[k], ob[j] if j >= 0 else -1,
-                         oe[j] if j >= 0 else -1, ob[geo] if geo >= 0 else -1, oe[geo] if geo >= 0 else -1))
-        blocks.append(np.array(rows, dtype=float).reshape(-1, 13))
+                         oe[j] if j >= 0 else -1))
+        blocks.append(np.array(rows, dtype=float).reshape(-1, 11))
     blocks.append(plain[start:])
     return np.vstack(blocks)
 
@@ -220,9 +221,10 @@ def build_pieces(boundaries: list[BoundaryOf], cut, radius: float, self_contact:
     """
     base = _base_pieces(boundaries, cut)
     contact = _search(boundaries, radius, self_contact, split, n_fixed)
+    edge_offset = np.concatenate([[0], np.cumsum([len(bd.edges) for bd in boundaries])]).astype(np.int64)
     cols = []
     for b, bd in enumerate(boundaries):
-        rows = _merge(base[b], contact.get(b))
+        rows = _merge(base[b], contact.get(b), edge_offset)
         scale = 1.0 + float(np.max(np.abs(bd.x))) if len(bd.x) else 1.0
         ext = _extension(bd.x, bd.edges, rows[:, [0, 1, 2, 3, 4, 7, 8, 5, 6]], scale) if cut is not None and extension \
             else np.full((len(rows), 5), -1.0)
@@ -237,11 +239,11 @@ def build_pieces(boundaries: list[BoundaryOf], cut, radius: float, self_contact:
             sel = m.body == b
             none = np.full(int(sel.sum()), -1.0)
             cols.append(np.column_stack([np.full(len(none), b), m.edge[sel], m.s0[sel], m.s1[sel], none, none,
-                                         0.0 * none, 0.0 * none, m.part[sel], -none, none, none, none, none, none,
+                                         0.0 * none, 0.0 * none, m.part[sel], -none, none, none, none,
                                          0.0 * none, none, none, 0.0 * none, -none]))
-    a = np.vstack(cols) if cols else np.zeros((0, 20))
+    a = np.vstack(cols) if cols else np.zeros((0, 18))
     i = lambda c: a[:, c].astype(np.int64)  # noqa: E731
     return CouplingPieces(body=i(0), edge=i(1), s0=a[:, 2].copy(), s1=a[:, 3].copy(), d0=i(4), d1=i(5),
                           c0=a[:, 6].copy(), c1=a[:, 7].copy(), cell=i(8), fs=a[:, 9] > 0, opp_body=i(10),
-                          opp_edge=i(11), end_body=i(12), end_edge=i(13), ext_edge=i(14), ext_s=a[:, 15].copy(),
-                          ext_cell=i(16), ext_d=i(17), ext_c=a[:, 18].copy(), mouth=a[:, 19] > 0)
+                          opp_edge=i(11), ext_edge=i(12), ext_s=a[:, 13].copy(),
+                          ext_cell=i(14), ext_d=i(15), ext_c=a[:, 16].copy(), mouth=a[:, 17] > 0)

@@ -33,7 +33,7 @@ from numba import njit
 from fsci.assembly import Assembly, ResidualAssembly
 from fsci.coupling import traction as tk
 from fsci.coupling.points import BoundaryOf, CouplingPieces, build_pieces
-from fsci.cut.state import is_moving_end
+from fsci.cut.state import END_NODE0, END_NODE1, is_end_on_edge, is_moving_end
 from fsci.cut.transfer import transfer_indices
 from fsci.errors import InputError
 from fsci.expressions import Expression
@@ -483,26 +483,19 @@ class CouplingTerm:
                         We[me] = c_new * s.Un[ee] + (1.0 - ctx.theta) / ctx.theta * s.Vn[ee]
                     else:
                         We[me] = -s.Vn[ee]
-        # opposite bodies; for a piece without one that ends at an opposite node's projection, the
-        # segment of that node (its end's geometry only: the segment's two nodes)
-        geo_body = np.where(has_opp, pc.opp_body, pc.end_body)
-        geo_edge = np.where(has_opp, pc.opp_edge, pc.end_edge)
+        # opposite bodies: the whole element of the opposite segment (its stress)
         for b, s in enumerate(system.solids):
-            m = np.nonzero(geo_body == b)[0]
+            m = np.nonzero(has_opp & (pc.opp_body == b))[0]
             if len(m) == 0:
                 continue
-            cells = s.mesh.cells[self._cell[b][geo_edge[m]]]
-            em = self._local[b][geo_edge[m]]
-            ip[m, tk.I_EM] = em
+            cells = s.mesh.cells[self._cell[b][pc.opp_edge[m]]]
+            ip[m, tk.I_EM] = self._local[b][pc.opp_edge[m]]
             ip[m, tk.I_LAWM] = s.law
             prmm[m] = s.prm
             Xm[m] = s.X[cells]
             zidx[m, tk.OFF_OPP:tk.OFF_OPP + 8] = (base[b] + 2 * cells[:, :, None] + two).reshape(len(m), 8)
-            keep = np.zeros(cells.shape, dtype=bool)
-            np.put_along_axis(keep, np.column_stack([em, (em + 1) % 4]), True, axis=1)
-            keep |= has_opp[m, None]
-            conn[m, 4:8] = np.where(keep, s.gnode[cells], -1)
-        self._gather_crossed_edges(system, pc, base, zidx, conn, Xe)
+            conn[m, 4:8] = s.gnode[cells]
+        self._gather_end_edges(system, pc, base, zidx, conn, Xe)
         mo = np.nonzero(has_opp)[0]
         if len(mo):
             phi_o = np.array([self.phi[b][e] for b, e in zip(pc.body[mo], pc.edge[mo])])
@@ -555,33 +548,36 @@ class CouplingTerm:
             out.update(self._position_data(system, ctx, level, pc))
         return out
 
-    @staticmethod
-    def _gather_crossed_edges(system, pc: CouplingPieces, base: np.ndarray, zidx: np.ndarray, conn: np.ndarray,
-                              Xe: np.ndarray) -> None:
-        """Slots of the other bodies' edges that the pieces' ends and extension points of the
-        kinds ``MOVING_ENDS`` cross or whose closed film's line they meet (the coordinate is
-        the edge's index among all bodies' boundary edges, in the cut's order): reference
-        coordinates into ``Xe[:, 2:8]``, local unknowns from ``OFF_END``, global nodes into
-        slots 18-23."""
-        ends = [np.nonzero(is_moving_end(d))[0] for d in (pc.d0, pc.d1, pc.ext_d)]
-        if system.cut is None or not any(len(e) for e in ends):
+    def _gather_end_edges(self, system, pc: CouplingPieces, base: np.ndarray, zidx: np.ndarray, conn: np.ndarray,
+                          Xe: np.ndarray) -> None:
+        """Slots of the edges that the pieces' ends and extension points take their position
+        from: the other bodies' boundary edges they cross or whose closed film's line they meet
+        (kinds ``MOVING_ENDS``, the coordinate the edge's index among all bodies' boundary edges
+        in the cut's order), and the coupling edges whose node projects there (``END_NODE0/1``,
+        the index among all bodies' coupling edges): reference coordinates into ``Xe[:, 2:8]``,
+        local unknowns from ``OFF_END``, global nodes into slots 18-23."""
+        kinds = (pc.d0, pc.d1, pc.ext_d)
+        if not any(is_end_on_edge(d).any() for d in kinds):
             return
-        edges = [s.mesh.boundary.edges for s in system.solids]
-        off = np.concatenate([[0], np.cumsum([len(e) for e in edges])]).astype(np.int64)
+        lists = [(is_moving_end, [s.mesh.boundary.edges for s in system.solids]),
+                 (lambda d: (d == END_NODE0) | (d == END_NODE1), self._edges)]
         two = np.arange(2)
-        for end, (sel, c) in enumerate(zip(ends, (pc.c0, pc.c1, pc.ext_c))):
-            if not len(sel):
-                continue
-            g = np.rint(c[sel]).astype(np.int64)
-            body = np.searchsorted(off, g, side="right") - 1
-            for b in np.unique(body):
-                s = system.solids[b]
-                m = sel[body == b]
-                nodes = edges[b][g[body == b] - off[b]]
-                Xe[m, 2 + 2 * end:4 + 2 * end] = s.X[nodes]
-                o = tk.OFF_END + 4 * end
-                zidx[m, o:o + 4] = (base[b] + 2 * nodes[:, :, None] + two).reshape(len(m), 4)
-                conn[m, 18 + 2 * end:20 + 2 * end] = s.gnode[nodes]
+        for of_kind, edges in lists:
+            off = np.concatenate([[0], np.cumsum([len(e) for e in edges])]).astype(np.int64)
+            for end, (d, c) in enumerate(zip(kinds, (pc.c0, pc.c1, pc.ext_c))):
+                sel = np.nonzero(of_kind(d))[0]
+                if not len(sel):
+                    continue
+                g = np.rint(c[sel]).astype(np.int64)
+                body = np.searchsorted(off, g, side="right") - 1
+                for b in np.unique(body):
+                    s = system.solids[b]
+                    m = sel[body == b]
+                    nodes = edges[b][g[body == b] - off[b]]
+                    Xe[m, 2 + 2 * end:4 + 2 * end] = s.X[nodes]
+                    o = tk.OFF_END + 4 * end
+                    zidx[m, o:o + 4] = (base[b] + 2 * nodes[:, :, None] + two).reshape(len(m), 4)
+                    conn[m, 18 + 2 * end:20 + 2 * end] = s.gnode[nodes]
 
     def _gauss_points(self, x: np.ndarray, s0: np.ndarray, s1: np.ndarray) -> np.ndarray:
         s = s0[:, None] + (s1 - s0)[:, None] * self.gp[None, :]

@@ -32,8 +32,8 @@ residual evaluated with ``(w_p, w_t, w_c) = (0, 1, 0)`` at the converged state o
 
 Local unknowns of a piece (``N_LOCAL`` = 56, absent slots are skipped):
 ``[own element u (8) | opposite element u (8) | fluid cell (v_x, v_y, p) × 4 | extension cell × 4 |
-extension edge u (4) | other body's edge crossed at end 0 u (4) | at end 1 (4) | at the
-extension point (4)]``. The Jacobian is the exact derivative over the live slots: by complex
+extension edge u (4) | the edge end 0 lies on or whose node projects there u (4) | that of end 1
+(4) | of the extension point (4)]``. The Jacobian is the exact derivative over the live slots: by complex
 step in the solid unknowns, and, since with the case of every point fixed the residual is affine
 in the fluid cell's and the extension cell's values, by real differences of step
 ``AFFINE_STEP`` in those (the same columns to 2e-15 of their size, at about half the cost). It
@@ -62,7 +62,7 @@ CORNERS = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
 
 N_LOCAL = 56  # local unknowns of a piece
 # node slots: own element 4, opposite element 4, fluid cell 4, extension cell 4, extension edge 2,
-# the other body's edge crossed at end 0 2, at end 1 2, at the extension point 2
+# the edge end 0 lies on or whose node projects there 2, that of end 1 2, of the extension point 2
 N_SLOTS = 24
 OFF_OPP, OFF_CELL, OFF_EXT, OFF_EDGE, OFF_END = 8, 16, 28, 40, 44
 
@@ -110,8 +110,9 @@ def _piece_end(d, s_fixed, c, A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1
     node d = 0/1 (Remark 9), where the edge crosses the grid line x = c (d = 2) / y = c (d = 3),
     where it crosses another body's edge B + r w (d = 4, fsci.cut.state.END_BODY), or that edge's
     line moved by ``film`` along its outward normal (d = 5) or against it (d = 6): the end of a
-    closed film — the ends move with the unknowns, so the Jacobian includes the motion of the
-    splits."""
+    closed film; or the projection of the node B (d = 7) or B + w (d = 8) of an edge other than
+    the opposite segment (fsci.cut.state.END_NODE0/1: where the opposite surface ends) — the
+    ends move with the unknowns, so the Jacobian includes the motion of the splits."""
     if d < 0:
         return s_fixed + 0.0 * A0
     if d == 0:
@@ -122,6 +123,10 @@ def _piece_end(d, s_fixed, c, A0, A1, t0, t1, L2, P0, P1, Q0, Q1, B0, B1, w0, w1
         return (c - A0) / t0
     if d == 3:
         return (c - A1) / t1
+    if d == 7:
+        return ((B0 - A0) * t0 + (B1 - A1) * t1) / L2
+    if d == 8:
+        return ((B0 + w0 - A0) * t0 + (B1 + w1 - A1) * t1) / L2
     den = t0 * w1 - t1 * w0
     if abs(den.real) <= 1e-12 * np.sqrt(L2.real * (w0.real * w0.real + w1.real * w1.real)):
         return s_fixed + 0.0 * A0  # the edges turned parallel since the cut: no crossing to follow

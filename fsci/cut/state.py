@@ -56,6 +56,11 @@ END_BODY = 4
 # the other side (END_FILM_IN); the edge in the line coordinate as for END_BODY
 END_FILM_OUT, END_FILM_IN = 5, 6
 MOVING_ENDS = (END_BODY, END_FILM_OUT, END_FILM_IN)  # ends on another body's (offset) edge
+# (coupling pieces only, not the cut's) an end where node 0 / 1 of a body's coupling edge projects
+# along the edge's normal (paper Remark 9) when that edge is not the piece's opposite segment: the
+# opposite surface ends there (a tip) and another one, or none, is seen beyond; the coordinate is
+# the edge's index among all bodies' coupling edges (fsci.coupling.points.build_pieces)
+END_NODE0, END_NODE1 = 7, 8
 AREA_TOL = 1e-15  # relative to the cell area: below this a fluid or solid part is treated as empty
 MITRE_LIMIT = 5.0  # of the grown outlines of closed films: a corner reaches at most this × δ out (GEOS's default)
 
@@ -64,6 +69,12 @@ def is_moving_end(kind: np.ndarray) -> np.ndarray:
     """Whether each end kind is one of ``MOVING_ENDS`` (the consecutive kinds 4-6; a comparison
     instead of ``np.isin``, which costs some 30 µs on a few hundred ends)."""
     return (kind >= END_BODY) & (kind <= END_FILM_IN)
+
+
+def is_end_on_edge(kind: np.ndarray) -> np.ndarray:
+    """Whether each end kind takes its position from an edge of a body other than the piece's
+    opposite segment (``MOVING_ENDS``, ``END_NODE0``, ``END_NODE1``: the consecutive kinds 4-8)."""
+    return (kind >= END_BODY) & (kind <= END_NODE1)
 
 
 @dataclass
