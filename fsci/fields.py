@@ -326,6 +326,7 @@ class FluidField:
             keep &= ~cut.ghost
         self.faces = cut.faces[keep]
         self.ghost_weight = cut.ghost_weights(st.ghost_ramp)[keep]
+        self.ghost_cell, self.ghost_slope = (a[keep] for a in cut.ghost_weight_slopes(st.ghost_ramp))
         self.face_nodes = cut.face_vnodes[keep]
         n = self.grid.n_nodes
         single = cut.n_vnodes == n and len(self.active) == n

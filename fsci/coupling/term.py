@@ -39,6 +39,7 @@ from fsci.errors import InputError
 from fsci.expressions import Expression
 from fsci.fem.quadrature import gauss_line, gauss_quad
 from fsci.fields import StepContext, time_weighted_vector
+from fsci.physics import fluid as fk
 from fsci.physics.fluid import N_CELL_PARAMETERS
 
 GAP_LAW = "gap_law"
@@ -194,6 +195,7 @@ class CouplingTerm:
         self.phi = [np.full(len(e), np.inf) for e in self._edges]
         self._key = None
         self._pieces: CouplingPieces | None = None
+        self._ghost: tuple[object, tuple[np.ndarray, np.ndarray, np.ndarray] | None] = (None, None)
         self._data_key = None
         self._data: dict | None = None
         self._old: dict[str, np.ndarray] | None = None
@@ -294,6 +296,61 @@ class CouplingTerm:
                                         self.iset is None or self.iset.extension)
             self._key = key
         return self._pieces
+
+    def ghost_motion(self, system) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """Where the ghost penalty's weight of a face lies inside its ramp (decision 33), it
+        moves with the body boundary in the cell that sets it: pairs of such a face and a wetted
+        piece in that cell, as ``(face, dwdu, conn)``: the face (index into the fluid's
+        faces), the weight's derivative with respect to the piece's edge nodes ``(k, 4)``, and
+        the global nodes ``(k, 8)`` (the face's six, the edge's two); None without such faces.
+
+        With σ = 1 - |K_fluid| / |K| the cell's solid fraction, a boundary moving by δu(s)
+        along its outward normal n takes ``δσ = (1/|K|) ∫ δu·n ds`` from the fluid; on a piece
+        of an edge a → b with ``δu = (1 - s) δu_a + s δu_b`` that is
+        ``(L/|K|) n (∫(1 - s) ds, ∫ s ds)`` over the piece's parameter range. Per geometry."""
+        f = system.fluid
+        if f is None or not np.any(f.ghost_slope > 0.0):
+            return None
+        key = self._geometry_key(system)
+        if self._ghost[0] is not None and self._ghost[0] == key:
+            return self._ghost[1]
+        pc = self.pieces(system)
+        g = f.grid
+        faces = np.nonzero(f.ghost_slope > 0.0)[0]
+        wet = np.nonzero(pc.fs & ~pc.mouth)[0]
+        wet = wet[[system.solids[b].has_dofs for b in pc.body[wet]]] if len(wet) else wet
+        cell_of_piece = pc.cell[wet] % g.n_cells
+        face_of, piece = [], []
+        for k in faces:
+            p = wet[cell_of_piece == f.ghost_cell[k]]
+            face_of.append(np.full(len(p), k))
+            piece.append(p)
+        face_of = np.concatenate(face_of).astype(np.int64)
+        piece = np.concatenate(piece).astype(np.int64)
+        out = None
+        if len(piece):
+            dwdu = np.empty((len(piece), 4))
+            conn = np.empty((len(piece), 8), dtype=np.int64)
+            conn[:, :6] = f.gnode[f.face_nodes[face_of]]
+            for b, s in enumerate(system.solids):
+                m = np.nonzero(pc.body[piece] == b)[0]
+                if not len(m):
+                    continue
+                e = self._edges[b][pc.edge[piece[m]]]
+                x = s.X + s.U
+                t = x[e[:, 1]] - x[e[:, 0]]
+                L = np.linalg.norm(t, axis=1)
+                n = np.column_stack([t[:, 1], -t[:, 0]]) / L[:, None]
+                s0, s1 = pc.s0[piece[m]], pc.s1[piece[m]]
+                half = 0.5 * (s1 * s1 - s0 * s0)
+                cell = f.ghost_cell[face_of[m]]
+                scale = f.ghost_slope[face_of[m]] * L / (g.cell_size[cell, 0] * g.cell_size[cell, 1])
+                dwdu[m, :2] = (scale * (s1 - s0 - half))[:, None] * n
+                dwdu[m, 2:] = (scale * half)[:, None] * n
+                conn[m, 6:] = s.gnode[e]
+            out = (face_of, dwdu, conn)
+        self._ghost = (key, out)
+        return out
 
     # ----------------------------------------------------------------- per-piece data
     def _weights(self, phi_o: np.ndarray, phi_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -596,7 +653,8 @@ class CouplingTerm:
     # ----------------------------------------------------------------- term interface
     def blocks(self, system) -> list[np.ndarray]:
         ctx = getattr(system, "ctx", None) or StepContext(0.0, 1.0, 1.0, 1.0, True)
-        return [self._current(system, ctx)["conn"]]
+        ghost = self.ghost_motion(system)
+        return [self._current(system, ctx)["conn"]] + ([ghost[2]] if ghost is not None else [])
 
     def reach(self, system) -> list[tuple[np.ndarray, np.ndarray]]:
         """Node pairs the pieces may couple once the bodies moved by up to a cell: every body
@@ -604,7 +662,7 @@ class CouplingTerm:
         sparsity pattern, :meth:`fsci.system.System.pattern`)."""
         if system.fluid is None:
             return []
-        conn, = self.blocks(system)
+        conn = self.blocks(system)[0]
         fluid = tk.SLOT_NDOF == 3
         return [(conn[:, ~fluid], system.fluid.nodes_around(conn[:, fluid]))]
 
@@ -613,12 +671,15 @@ class CouplingTerm:
         f = system.fluid
         mu, sym = (1.0, 0.0) if f is None else (f.mu, f.sym)
         fprm = np.zeros(N_CELL_PARAMETERS) if f is None else f.cell_parameters(ctx)
-        # the shape derivative is the derivative of the re-cut residual: not while the cut is frozen
-        shape = f is not None and self.iset.shape_derivative and not getattr(system, "_cut_frozen", False)
+        shape = self._shape_derivative(system)
         tk.assemble_pieces(d["z"], d["ip"], d["fp"], d["Xo"], d["prmo"], d["Xm"], d["prmm"], d["W"], d["vq"],
                            d["kap"], d["Xe"], d["We"], d["vqe"], d["Vo"], d["Vb"], d["bq"], fprm, shape, mu, sym, self.sadj,
                            self.variant33, *weights, self.gp, self.gw, d["conn"], asm.positions(d["conn"]),
                            *asm.target(), out)
+
+    def _shape_derivative(self, system) -> bool:
+        """The shape derivative is the derivative of the re-cut residual: not while the cut is frozen."""
+        return system.fluid is not None and self.iset.shape_derivative and not getattr(system, "_cut_frozen", False)
 
     def begin_step(self, system, ctx: StepContext) -> None:
         self.update_penalty(system)
@@ -653,6 +714,13 @@ class CouplingTerm:
         out = np.zeros((len(d["ip"]), len(self.gp), tk.N_OUT))
         w_t = 1.0 if ctx.static else ctx.theta
         self._run(system, ctx, d, asm, (1.0, w_t, 1.0), out)
+        ghost = self.ghost_motion(system) if asm.want_matrix and self._shape_derivative(system) else None
+        if ghost is not None:  # the ghost penalty's weight moving with the bodies (the fluid term's residual)
+            f = system.fluid
+            g = f.grid
+            face_of, dwdu, conn = ghost
+            fk.assemble_ghost_weight_motion(g.xs, g.ys, g.nx, f.face_nodes, f.faces, face_of, dwdu, f.V,
+                                            f.face_parameters(ctx), conn, asm.positions(conn), *asm.target())
         pc = self.pieces(system)
         real = ~pc.mouth  # a film's mouth has no interface points
         self.out = out[real]

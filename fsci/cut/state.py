@@ -989,6 +989,24 @@ class CutState:
         w[self.state == SOLID] = 1.0
         return np.where(self.ghost, np.maximum(w[self.faces[:, 0]], w[self.faces[:, 1]]), 0.0)
 
+    def ghost_weight_slopes(self, ramp: float) -> tuple[np.ndarray, np.ndarray]:
+        """For every face of :attr:`faces`: the cell whose solid fraction σ sets its ghost weight
+        (:meth:`ghost_weights`, the larger of its two cells') and the weight's derivative with
+        respect to that σ: ``1 / ramp`` where σ lies inside the ramp, else 0 (cell -1 on faces
+        without ghost penalty). The weight then moves with the bodies (its derivative is
+        part of the shape derivative, :meth:`fsci.coupling.term.CouplingTerm.ghost_motion`)."""
+        g = self.grid
+        if ramp <= 0.0:
+            return np.full(len(self.faces), -1, dtype=np.int64), np.zeros(len(self.faces))
+        solid = 1.0 - self.fluid_area / (g.cell_size[:, 0] * g.cell_size[:, 1])
+        w = np.clip(solid / ramp, 0.0, 1.0)
+        w[self.state == FLUID] = 0.0
+        w[self.state == SOLID] = 1.0
+        slope = np.where((self.state == CUT) & (solid > 0.0) & (solid < ramp), 1.0 / ramp, 0.0)
+        left, right = self.faces[:, 0], self.faces[:, 1]
+        cell = np.where(w[left] >= w[right], left, right)
+        return np.where(self.ghost, cell, -1), np.where(self.ghost, slope[cell], 0.0)
+
     def boundary_pieces(self, side: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """PHYSICAL parts of the box side's grid edges: edge index (into ``grid.side_edges``),
         local range ``[s0, s1]`` (0 at the edge's first node; uncut edges give [0, 1]) and the

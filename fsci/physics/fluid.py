@@ -320,6 +320,31 @@ def _face_map(d, rmap):
         rmap[3] = 5
 
 
+@njit(cache=True, inline="always")
+def _normal_jump(d, gqg, hxl, hyl, hxr, hyr, rmap, N, dN, J, NL):
+    """At the face's Gauss point ``gqg``: ``J`` the jump of the normal derivative of the six
+    face nodes' shape functions (right/upper minus left/lower), ``NL`` the left/lower cell's
+    shape functions there."""
+    J[:] = 0.0
+    # left/bottom parent: xi = +1 on the face (d=0) or eta = +1 (d=1)
+    if d == 0:
+        q1_shape(1.0, gqg, N, dN)
+        for a in range(4):
+            J[a] -= dN[a, 0] * 2.0 / hxl
+            NL[a] = N[a]
+        q1_shape(-1.0, gqg, N, dN)
+        for a in range(4):
+            J[rmap[a]] += dN[a, 0] * 2.0 / hxr
+    else:
+        q1_shape(gqg, 1.0, N, dN)
+        for a in range(4):
+            J[a] -= dN[a, 1] * 2.0 / hyl
+            NL[a] = N[a]
+        q1_shape(gqg, -1.0, N, dN)
+        for a in range(4):
+            J[rmap[a]] += dN[a, 1] * 2.0 / hyr
+
+
 @njit(cache=True)
 def assemble_fluid_faces(items, xs, ys, nx, fnodes, faces, ghost_weight, Vbar, V, P, prm, gnode, pos,
                          data, rhs, row_base, row_len, start, ndof, want_matrix):
@@ -370,24 +395,7 @@ def assemble_fluid_faces(items, xs, ys, nx, fnodes, faces, ghost_weight, Vbar, V
         Ke[:] = 0.0
         Re[:] = 0.0
         for g in range(2):
-            J[:] = 0.0
-            # left/bottom parent: xi = +1 on the face (d=0) or eta = +1 (d=1)
-            if d == 0:
-                q1_shape(1.0, gq[g], N, dN)
-                for a in range(4):
-                    J[a] -= dN[a, 0] * 2.0 / hxl
-                    NL[a] = N[a]
-                q1_shape(-1.0, gq[g], N, dN)
-                for a in range(4):
-                    J[rmap[a]] += dN[a, 0] * 2.0 / hxr
-            else:
-                q1_shape(gq[g], 1.0, N, dN)
-                for a in range(4):
-                    J[a] -= dN[a, 1] * 2.0 / hyl
-                    NL[a] = N[a]
-                q1_shape(gq[g], -1.0, N, dN)
-                for a in range(4):
-                    J[rmap[a]] += dN[a, 1] * 2.0 / hyr
+            _normal_jump(d, gq[g], hxl, hyl, hxr, hyr, rmap, N, dN, J, NL)
             un = 0.0
             for a in range(4):
                 un += NL[a] * (Vbar[fn[a], 0] * nvec0 + Vbar[fn[a], 1] * nvec1)
@@ -415,6 +423,57 @@ def assemble_fluid_faces(items, xs, ys, nx, fnodes, faces, ghost_weight, Vbar, V
                         Ke[3 * a + 2, 3 * b + 2] += jj * tau_p
         # n = (1, 0) or (0, 1): the n-n coupling of the divergence jump is within a component
         add_local(data, rhs, row_base, row_len, start, ndof, nodes, pos[f], Ke, Re, want_matrix, True)
+
+
+@njit(cache=True)
+def assemble_ghost_weight_motion(xs, ys, nx, fnodes, faces, face_of, dwdu, V, prm, conn, pos,
+                                 data, rhs, row_base, row_len, start, ndof, want_matrix):
+    """The ghost penalty's dependence on the body motion through its weight (decision 33): for
+    every pair ``k`` of a face ``face_of[k]`` and an edge of a body, the derivative
+    ``dwdu[k]`` (edge nodes × components) of the face's weight times the penalty's residual at
+    unit weight, into the velocity rows of the face's six nodes and the edge nodes' columns.
+    ``conn[k]``: the six face nodes, then the edge's two nodes (global). The residual is the
+    fluid term's; only the matrix gets entries."""
+    if not want_matrix:
+        return
+    rho = prm[S_RHO]
+    nu = prm[S_MU] / rho
+    gq = np.array([-1.0 / np.sqrt(3.0), 1.0 / np.sqrt(3.0)])
+    N = np.empty(4)
+    dN = np.empty((4, 2))
+    rmap = np.empty(4, dtype=np.int64)
+    J = np.empty(6)
+    NL = np.empty(4)
+    G = np.empty((6, 2))
+    Ke = np.zeros((22, 22))
+    Re = np.zeros(22)
+    for k in range(len(face_of)):
+        f = face_of[k]
+        cl = faces[f, 0]
+        cr = faces[f, 1]
+        d = faces[f, 2]
+        _face_map(d, rmap)
+        _, _, hxl, hyl = _cell_geometry(xs, ys, nx, cl)
+        _, _, hxr, hyr = _cell_geometry(xs, ys, nx, cr)
+        h = max(hxl, hxr) if d == 0 else max(hyl, hyr)
+        flen = hyl if d == 0 else hxl
+        tau_gp = prm[S_GGP] * rho * nu * h + prm[S_GGPT] * rho * h ** 3 * prm[S_DTINV]  # at unit weight
+        G[:] = 0.0
+        for g in range(2):
+            _normal_jump(d, gq[g], hxl, hyl, hxr, hyr, rmap, N, dN, J, NL)
+            jv0 = 0.0
+            jv1 = 0.0
+            for b in range(6):
+                jv0 += J[b] * V[fnodes[f, b], 0]
+                jv1 += J[b] * V[fnodes[f, b], 1]
+            for a in range(6):
+                G[a, 0] += 0.5 * flen * tau_gp * J[a] * jv0
+                G[a, 1] += 0.5 * flen * tau_gp * J[a] * jv1
+        for a in range(6):
+            for i in range(2):
+                for c in range(4):
+                    Ke[3 * a + i, 18 + c] = G[a, i] * dwdu[k, c]
+        add_local(data, rhs, row_base, row_len, start, ndof, conn[k], pos[k], Ke, Re, want_matrix)
 
 
 BLOCK = 8  # cells per side of an assembly block (from 2 on, blocks of one colour share no node)
