@@ -348,7 +348,8 @@ class CouplingTerm:
                 dwdu[m, :2] = (scale * (s1 - s0 - half))[:, None] * n
                 dwdu[m, 2:] = (scale * half)[:, None] * n
                 conn[m, 6:] = s.gnode[e]
-            out = (face_of, dwdu, conn)
+            full = np.all(conn >= 0, axis=1)  # the kernel's local matrix has every slot (faces join ACTIVE cells)
+            out = (face_of[full], dwdu[full], conn[full]) if full.any() else None
         self._ghost = (key, out)
         return out
 
