@@ -982,12 +982,17 @@ class CutState:
         solution of its own cut (docs/architecture.md, decision 33). The ramp makes the penalty
         continuous in the geometry; a cell with a solid fraction above ``ramp`` (a small fluid
         part, the cells the penalty is for) is penalised exactly as in the paper."""
+        _, w = self._ghost_cell_weights(ramp)
+        return np.where(self.ghost, np.maximum(w[self.faces[:, 0]], w[self.faces[:, 1]]), 0.0)
+
+    def _ghost_cell_weights(self, ramp: float) -> tuple[np.ndarray, np.ndarray]:
+        """Solid fraction σ of every cell and its ghost-penalty weight (:meth:`ghost_weights`)."""
         g = self.grid
         solid = 1.0 - self.fluid_area / (g.cell_size[:, 0] * g.cell_size[:, 1])
         w = np.ones(g.n_cells) if ramp <= 0.0 else np.clip(solid / ramp, 0.0, 1.0)
         w[self.state == FLUID] = 0.0
         w[self.state == SOLID] = 1.0
-        return np.where(self.ghost, np.maximum(w[self.faces[:, 0]], w[self.faces[:, 1]]), 0.0)
+        return solid, w
 
     def ghost_weight_slopes(self, ramp: float) -> tuple[np.ndarray, np.ndarray]:
         """For every face of :attr:`faces`: the cell whose solid fraction σ sets its ghost weight
@@ -995,13 +1000,9 @@ class CutState:
         respect to that σ: ``1 / ramp`` where σ lies inside the ramp, else 0 (cell -1 on faces
         without ghost penalty). The weight then moves with the bodies (its derivative is
         part of the shape derivative, :meth:`fsci.coupling.term.CouplingTerm.ghost_motion`)."""
-        g = self.grid
         if ramp <= 0.0:
             return np.full(len(self.faces), -1, dtype=np.int64), np.zeros(len(self.faces))
-        solid = 1.0 - self.fluid_area / (g.cell_size[:, 0] * g.cell_size[:, 1])
-        w = np.clip(solid / ramp, 0.0, 1.0)
-        w[self.state == FLUID] = 0.0
-        w[self.state == SOLID] = 1.0
+        solid, w = self._ghost_cell_weights(ramp)
         slope = np.where((self.state == CUT) & (solid > 0.0) & (solid < ramp), 1.0 / ramp, 0.0)
         left, right = self.faces[:, 0], self.faces[:, 1]
         cell = np.where(w[left] >= w[right], left, right)
