@@ -52,8 +52,16 @@ def two_bodies_in_fluid(variant: str, shape_derivative: bool = False, scheme: st
     case["time"] = {"type": "transient", "theta": 1.0, "t_end": 0.1, "dt": 0.1}
     case["contact"] = {**case.get("contact", {}), "allow_overlap": True}  # the overlap is the point of the state
     system = System(problem_from_dict(case))
+    ctx, x0 = random_step_start(system, 0)
+    return system, ctx, x0
+
+
+def random_step_start(system: System, seed: int) -> tuple[StepContext, np.ndarray]:
+    """Begin a θ = 0.6 step of ``system`` from a random old level (displacements, velocities,
+    fluid velocity and pressure) and return it with a random state near it (displacements
+    moved by 0.002)."""
     ctx = StepContext(0.0, 0.1, 0.1, 0.6, False)
-    rng = np.random.default_rng(0)
+    rng = np.random.default_rng(seed)
     for s in system.solids:
         s.Un = 0.002 * rng.standard_normal(s.U.shape)
         s.Vn = 0.1 * rng.standard_normal(s.U.shape)
@@ -66,7 +74,7 @@ def two_bodies_in_fluid(variant: str, shape_derivative: bool = False, scheme: st
     x0 = system.gather()
     disp = system.field_dofs["displacement"]
     x0[disp] += 0.002 * rng.standard_normal(len(disp))
-    return system, ctx, x0
+    return ctx, x0
 
 
 @pytest.mark.parametrize("variant, scheme", [("remark6", "cip"), ("original", "cip"), ("remark6", "residual")])
@@ -195,19 +203,7 @@ def test_coupling_jacobian_where_the_opposite_surface_ends():
     case = static_case([lower, upper], fluid)
     case["time"] = {"type": "transient", "theta": 1.0, "t_end": 0.1, "dt": 0.1}
     system = System(problem_from_dict(case))
-    ctx = StepContext(0.0, 0.1, 0.1, 0.6, False)
-    rng = np.random.default_rng(3)
-    for s in system.solids:
-        s.Un = 0.002 * rng.standard_normal(s.U.shape)
-        s.Vn = 0.1 * rng.standard_normal(s.U.shape)
-        s.U = s.Un.copy()
-    f = system.fluid
-    f.Vn = rng.standard_normal(f.V.shape)
-    f.V = f.Vn.copy()
-    system.begin_step(ctx)
-    x0 = system.gather()
-    disp = system.field_dofs["displacement"]
-    x0[disp] += 0.002 * rng.standard_normal(len(disp))
+    ctx, x0 = random_step_start(system, 3)
     system.scatter(x0)
     system.update_cut()
     term = system.extra_terms[0]
