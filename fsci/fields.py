@@ -284,7 +284,7 @@ class FluidField:
         self.P = np.zeros(n)
         self.Vn = np.zeros((n, 2))
         self.Pn = np.zeros(n)
-        self.Vbar = np.zeros((n, 2))  # frozen velocity of the stabilisation scalings
+        self.Vbar = np.zeros((n, 2))  # velocity of the scalings in a time step (scaling_velocity)
         self.Vrate = np.zeros((n, 2))  # change per unit time over the last static step (its predictor)
         self.Prate = np.zeros(n)
         self.active = np.ones(n, dtype=bool)
@@ -499,7 +499,6 @@ class FluidField:
         if ctx.static:
             self.V = self.Vn + ctx.lead * self.Vrate
             self.P = self.Pn + ctx.lead * self.Prate
-            self.Vbar = self.V.copy()
         else:
             self.Vbar = self.Vn.copy()
 
@@ -515,11 +514,20 @@ class FluidField:
         mass = 0.0 if ctx.static else self.rho / ctx.dt
         theta = 1.0 if ctx.static else ctx.theta
         residual = 1.0 if self.spec.stabilization.scheme == "residual" else 0.0
-        return np.array([self.rho, self.mu, self.sym, mass, theta, residual])
+        return np.array([self.rho, self.mu, self.sym, mass, theta, residual, 1.0 if ctx.static else 0.0])
 
     def face_parameters(self, ctx: StepContext) -> np.ndarray:
         gu, gp, gdiv, ggp, ggpt = self.stab
-        return np.array([self.rho, self.mu, gu, gp, gdiv, ggp, ggpt, 0.0 if ctx.static else 1.0 / ctx.dt])
+        return np.array([self.rho, self.mu, gu, gp, gdiv, ggp, ggpt, 0.0 if ctx.static else 1.0 / ctx.dt,
+                         1.0 if ctx.static else 0.0])
+
+    def scaling_velocity(self, ctx: StepContext) -> np.ndarray:
+        """The velocity the stabilisation and Nitsche scalings are evaluated at: in a time step
+        the last step's, ``Vbar`` (frozen in the step, so the Jacobian needs no derivative of the
+        scalings); in steady flow the unknown velocity itself, and the Jacobian includes the
+        scalings' derivative (no last step to take it from; lagging it by one Newton iteration
+        made Newton converge only linearly)."""
+        return self.V if ctx.static else self.Vbar
 
     def assemble(self, asm: Assembly, ctx: StepContext) -> None:
         g = self.grid
@@ -527,12 +535,13 @@ class FluidField:
         body_force_q = self.body_force_density(ctx)
         conn = self.gnode[self.int_conn]
         Vo = self.Vn if not ctx.static else self.V
+        ub = self.scaling_velocity(ctx)
         if self._blocks_of is None or self._blocks_of[0] is not self.int_cells or self._blocks_of[1] is not self.faces:
             self._blocks = (fk.coloured_blocks(g.cell_ij[self.int_cells]), fk.coloured_blocks(g.cell_ij[self.faces[:, 0]]))
             self._blocks_of = (self.int_cells, self.faces)
         cells = (g.xs, g.ys, g.nx, self.int_conn, self.int_cells, self.qptr, self.qx, self.qw, body_force_q, self.V,
-                 self.P, Vo, self.Vbar, self.cell_parameters(ctx), self.gnode, asm.positions(conn), *tgt)
-        faces = (g.xs, g.ys, g.nx, self.face_nodes, self.faces, self.ghost_weight, self.Vbar, self.V, self.P,
+                 self.P, Vo, ub, self.cell_parameters(ctx), self.gnode, asm.positions(conn), *tgt)
+        faces = (g.xs, g.ys, g.nx, self.face_nodes, self.faces, self.ghost_weight, ub, self.V, self.P,
                  self.face_parameters(ctx), self.gnode, asm.positions(self.gnode[self.face_nodes]), *tgt)
         # the same sums in the same order either way (fsci.physics.fluid.coloured_blocks)
         for (order, bptr, cptr), args, serial, parallel in (

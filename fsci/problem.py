@@ -169,7 +169,6 @@ class SolverSettings:
     step_cut_factor: float = 0.5
     dt_min: float = 0.0
     steps_before_growth: int = 1  # after a cut: converged steps at the reduced size before it grows back
-    outer_tol: float = 1e-4  # steady flow: relative change of the lagged stabilisation velocity
 
 
 @dataclass

@@ -855,7 +855,6 @@ SOLVER = Table([
     Key("steps_before_growth", Int(1), 1, "after a step-size cut, converged steps at the reduced size before it "
         "grows back by 1/step_cut_factor (1: after every step; more keeps a step that had to be cut from being "
         "tried again at the size that failed in the next step)"),
-    Key("outer_tol", Num(0.0, lo_open=True), 1e-4, "steady flow: relative change of the lagged stabilisation velocity"),
 ], "[solver]", "Newton, linear solver and step control.")
 
 CONTACT = Table([

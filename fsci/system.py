@@ -142,17 +142,6 @@ class System:
         """Whether contact swung back and forth in the iterations of the last attempt (decision 38)."""
         return any(term.swung for term in self.extra_terms)
 
-    def converged_extra(self, settings) -> bool:
-        """Additional convergence condition: for steady flow, the lagged stabilisation velocity
-        changed by at most ``solver.outer_tol`` relative to the velocity (plus the increment
-        tolerance, so that a fluid at rest — velocity at round-off — counts as converged)."""
-        return self.stab_change <= settings.outer_tol * self.stab_scale + settings.tol_increment
-
-    def lag_settled(self, tol: float) -> bool:
-        """Whether the lagged stabilisation velocity of steady flow changed by at most ``tol`` at
-        the last iteration (always for a system without fluid)."""
-        return self.stab_change <= tol
-
     def _smallest_cell_side(self) -> float:
         return self.fluid.grid.h_min
 
@@ -211,18 +200,12 @@ class System:
         return any(not s.fixed.all() for s in self.solids)
 
     def before_iteration(self, it: int) -> bool:
-        """Before assembling Newton iteration ``it``: for steady flow, lag the frozen
-        stabilisation velocity; re-cut while the bodies moved more than eps_geom since the last
+        """Before assembling Newton iteration ``it``: re-cut while the bodies moved more than eps_geom since the last
         cut and at most ``freeze_cut_after`` iterations into the step or since
         :meth:`follow_cut_again` was called for a frozen-cut state (paper Sec. 3.4.2; the shape derivative
         is left out of the Jacobian while the cut is frozen), and apply the solution-space
         update rule (Sec. 3.4.3). Returns True if the dof layout changed."""
         f = self.fluid
-        if f is not None and self.ctx.static:
-            self.stab_change = float(np.max(np.abs(f.V - f.Vbar), initial=0.0))
-            self.stab_scale = float(np.max(np.abs(f.V), initial=0.0))
-            if it > 1:
-                f.Vbar = f.V.copy()
         if it > 1:
             for term in self.extra_terms:  # contact that swings (held in a repeated attempt, decision 38)
                 term.track_case_swings(hold=self.hold_swings)
@@ -397,8 +380,6 @@ class System:
             self._own_drops = 0
             self._drop_kept = False
             self._step_active = self.fluid.node_active.copy()
-        self.stab_change = 0.0
-        self.stab_scale = 0.0
         if self.fluid is not None:
             self.fluid.begin_step(ctx)
         for term in self.extra_terms:

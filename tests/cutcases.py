@@ -61,7 +61,7 @@ def fluid_box(n: int, mu: float = 1.0, rho: float = 1.0, **extra) -> dict:
 
 
 def static_case(bodies, fluid, **solver) -> dict:
-    s = {"tol_residual": 1e-11, "tol_increment": 1e-11, "outer_tol": 1e-10}
+    s = {"tol_residual": 1e-11, "tol_increment": 1e-11}
     s.update(solver)
     return {"name": "t", "time": {"type": "static", "t_end": 1.0, "dt": 1.0}, "solver": s, "bodies": bodies,
             "fluid": fluid, "output": {"every": 0, "figures": False}}

@@ -95,7 +95,7 @@ def dfg_2d_1() -> dict[str, Any]:
         "dfg-2d-1", "DFG 2D-1 flow around a cylinder (Re = 20), cylinder embedded in the background grid",
         {"n": 40, "Um": 0.3, "H": 0.41},
         {"type": "static", "t_end": 1.0, "dt": 1.0},
-        {"tol_residual": 1e-10, "tol_increment": 1e-10, "outer_tol": 1e-8},
+        {"tol_residual": 1e-10, "tol_increment": 1e-10},
         _coefficients() + [
             {"name": "cd_traction", "type": "body_force", "body": "cylinder", "component": 0, "scale": FORCE_SCALE,
              "method": "traction"},

@@ -477,7 +477,7 @@ class CouplingTerm:
         Xe = np.zeros((K, 8, 2))  # extension edge; the other bodies' edges crossed at the ends, the extension point
         We = np.zeros((K, 2, 2))
         Vo = np.zeros((K, 4, 2))  # previous fluid velocity at the cell nodes (bulk shape derivative)
-        Vb = np.zeros((K, 4, 2))  # frozen stabilisation velocity there (residual-based scheme)
+        Vb = np.zeros((K, 4, 2))  # the stabilisation velocity there in a time step (residual-based scheme)
         vmax_s = np.zeros(K)
         fp[:, tk.F_S0] = pc.s0
         fp[:, tk.F_S1] = pc.s1
@@ -580,11 +580,15 @@ class CouplingTerm:
                 fp[sel, cols[2]] = hx
                 fp[sel, cols[3]] = hy
                 hk = hx * hy / np.maximum(hx, hy)
-                vmax = np.maximum(np.max(np.abs(f.Vbar[nodes]), axis=(1, 2)), vmax_s[sel])
-                gam = st.gamma_n * (f.mu * st.trace_constant / hk + f.rho * vmax / 6.0)
-                if transient:
-                    gam += st.gamma_n * f.rho * hk / (12.0 * ctx.theta * ctx.dt)
+                gam = st.gamma_n * f.mu * st.trace_constant / hk
+                if transient:  # steady flow: the convective part at the unknowns (traction._nitsche_gamma)
+                    vmax = np.maximum(np.max(np.abs(f.Vbar[nodes]), axis=(1, 2)), vmax_s[sel])
+                    gam += st.gamma_n * f.rho * (vmax / 6.0 + hk / (12.0 * ctx.theta * ctx.dt))
                 return gam, hk
+
+            if not transient:
+                fp[:, tk.F_GAMV] = st.gamma_n * f.rho / 6.0
+                fp[:, tk.F_VMS] = vmax_s
 
             sel = np.nonzero(pc.fs)[0]
             if len(sel):
@@ -593,7 +597,8 @@ class CouplingTerm:
                 fp[sel, tk.F_AT] = hk / (st.gamma_t * st.trace_constant)
                 if not ctx.static:
                     Vo[sel] = f.Vn[system.cut.part_conn(pc.cell[sel])]
-                Vb[sel] = f.Vbar[system.cut.part_conn(pc.cell[sel])]
+                if transient:  # steady flow: the unknown velocity (add_bulk_shape_derivative)
+                    Vb[sel] = f.Vbar[system.cut.part_conn(pc.cell[sel])]
                 moving |= f.spec.body_force is not None
             sel = np.nonzero(has_ext)[0]
             if len(sel):

@@ -53,7 +53,7 @@ from numba import njit, prange
 
 from fsci.fem.q1 import q1_physical_gradients, q1_shape
 from fsci.fem.sparse import add_local
-from fsci.physics.fluid import cell_density
+from fsci.physics.fluid import P_LINEAR, cell_density
 from fsci.physics.materials import cauchy_stress
 
 CS_STEP = 1e-30  # complex-step size
@@ -77,8 +77,10 @@ I_EO, I_LAWO, I_EM, I_LAWM, I_D0, I_D1, I_FLAGS, I_DE = range(8)
 N_INT = 8
 # float data per piece
 (F_WOWN, F_PEN, F_S0, F_S1, F_CU, F_GAM, F_AT, F_X0C, F_Y0C, F_HX, F_HY, F_SE, F_CUE, F_GAME, F_X0E, F_Y0E,
- F_HXE, F_HYE, F_KAPPA0, F_SLIPH, F_C0, F_C1, F_CE, F_FILM) = range(24)
-N_FLT = 24
+ F_HXE, F_HYE, F_KAPPA0, F_SLIPH, F_C0, F_C1, F_CE, F_FILM, F_GAMV, F_VMS) = range(26)
+N_FLT = 26
+# F_GAM, F_GAME: γ^F of the cell and the extension cell; in steady flow only their viscous part,
+# and γ^F adds F_GAMV · max(|v| at the cell's nodes, F_VMS) at the unknowns (_nitsche_gamma)
 # columns of the per-Gauss-point output
 (O_X, O_Y, O_CASE, O_GAP, O_F, O_CC, O_KAPPA, O_W, O_NX, O_NY, O_TX, O_TY, O_TN_FSI, O_TN_CON) = range(14)
 N_OUT = 14
@@ -182,6 +184,26 @@ def _fluid_at(z, off, x, y, x0c, y0c, hx, hy, mu, sym, n0, n1, N, dN):
     return v0, v1, p, tv0 - p * n0, tv1 - p * n1, tv0, tv1
 
 
+@njit(cache=True, inline="always")
+def _nitsche_gamma(z, off, fp, f_gam):
+    """γ^F of Remark 8 for the fluid cell at ``off``: ``fp[f_gam]``, in steady flow plus its
+    convective part ``F_GAMV · max(|v| at the cell's nodes, F_VMS)`` at the unknowns ``z``
+    (a maximum: its derivative is that of the component attaining it)."""
+    gam = 0.0 * z[0] + fp[f_gam]
+    if fp[F_GAMV] == 0.0:
+        return gam
+    best = fp[F_VMS]
+    col = -1
+    for k in range(8):
+        j = off + 3 * (k // 2) + k % 2
+        if abs(z[j].real) > best:
+            best = abs(z[j].real)
+            col = j
+    if col < 0:
+        return gam + fp[F_GAMV] * best
+    return gam + fp[F_GAMV] * (z[col] if z[col].real > 0.0 else -z[col])
+
+
 @njit(cache=True)
 def piece_residual(z, r, out, ip, fp, Xo, prmo, Xm, prmm, W, vq, kap, Xe, We, vqe, mu, sym, sadj, variant33,
                    w_p, w_t, w_c, gp, gw, cases):
@@ -237,7 +259,7 @@ def piece_residual(z, r, out, ip, fp, Xo, prmo, Xm, prmm, W, vq, kap, Xe, We, vq
     w_own = fp[F_WOWN]
     pen = fp[F_PEN]
     cu = fp[F_CU]
-    gam = fp[F_GAM]
+    gam = _nitsche_gamma(z, OFF_CELL, fp, F_GAM)
     a_t = fp[F_AT]
     N = np.empty(4, dtype=z.dtype)
     dN = np.empty((4, 2), dtype=z.dtype)
@@ -265,7 +287,7 @@ def piece_residual(z, r, out, ip, fp, Xo, prmo, Xm, prmm, W, vq, kap, Xe, We, vq
         vse1 = (1.0 - se) * (cue * z[OFF_EDGE + 1] - We[0, 1]) + se * (cue * z[OFF_EDGE + 3] - We[1, 1]) + vqe[1]
         vrne = (ve0 - vse0) * m0 + (ve1 - vse1) * m1
         visc_e = tve0 * m0 + tve1 * m1
-        game = fp[F_GAME]
+        game = _nitsche_gamma(z, OFF_EXT, fp, F_GAME)
         Fe = -pe + visc_e + game * vrne
         Fe_applied = -w_p * pe + w_t * (visc_e + game * vrne)
     contributes = False
@@ -419,7 +441,8 @@ def add_bulk_shape_derivative(K, z, ip, fp, Xo, Xm, Xe, Vo, Vb, bq, fprm, gp, gw
     the cell integrand of fluid test function i (:func:`fsci.physics.fluid.cell_density`).
     Cut-cell quadrature is exact for these integrands, so this is the exact derivative of the
     discrete bulk residual with respect to the boundary position. ``Vo``: previous velocity at
-    the cell nodes, ``Vb``: the frozen stabilisation velocity there, ``bq[g]``: body-force density at the Gauss points, ``fprm``: cell
+    the cell nodes, ``Vb``: the stabilisation velocity there in a time step (in steady flow the
+    unknown one), ``bq[g]``: body-force density at the Gauss points, ``fprm``: cell
     parameters of the fluid kernel. A ``MOUTH`` piece is the mouth of a closed film: the same
     integral on the edge's line moved by δ = ``fp[F_FILM]`` along its normal (decision 43)."""
     if (ip[I_FLAGS] & ON_FS) == 0:
@@ -461,11 +484,13 @@ def add_bulk_shape_derivative(K, z, ip, fp, Xo, Xm, Xe, Vo, Vb, bq, fprm, gp, gw
     gv = np.empty((2, 2))
     go = np.empty((2, 2))
     dens = np.empty(12)
-    sp = np.empty(4)
+    sp = np.empty(7)
     for A in range(4):
         Ve[A, 0] = z[OFF_CELL + 3 * A]
         Ve[A, 1] = z[OFF_CELL + 3 * A + 1]
         Pe[A] = z[OFF_CELL + 3 * A + 2]
+    if fprm[P_LINEAR] != 0.0:  # steady flow: the scalings at the unknown velocity
+        Vb = Ve
     for g in range(len(gp)):
         s = sa + (sb - sa) * gp[g]
         w = gw[g] * (sb - sa) * L
@@ -596,9 +621,12 @@ def _piece_locals(z_all, ip_all, fp_all, Xo_all, prmo_all, Xm_all, prmm_all, W_a
             for g in range(len(gp)):
                 cases[g] = int(out[g, O_CASE])
             Kf = np.empty((N_LOCAL, N_LOCAL))  # every column of a present slot is filled below
+            # in steady flow γ^F depends on the largest of the cell's velocities (a large step in
+            # any of them makes it that one): affine in the pressures only
+            affine_v = fp_all[k, F_GAMV] == 0.0
             for jj in range(m):
                 j = idx[jj]
-                if OFF_CELL <= j < OFF_EDGE:
+                if OFF_CELL <= j < OFF_EDGE and (affine_v or (j - OFF_CELL) % 3 == 2):
                     # a fluid unknown (cell or extension cell): with the case of every point fixed
                     # the residual is affine in these, so a real difference is their exact column
                     # at about half the cost of a complex evaluation; a large step makes its

@@ -37,12 +37,14 @@ from fsci.fem.q1 import q1_shape
 from fsci.fem.sparse import add_local
 
 # indices into the parameter vector of the cell kernel (N_CELL_PARAMETERS entries)
-P_RHO, P_MU, P_SYM, P_MASS, P_THETA, P_RESIDUAL = range(6)
-N_CELL_PARAMETERS = 6
+P_RHO, P_MU, P_SYM, P_MASS, P_THETA, P_RESIDUAL, P_LINEAR = range(7)
+N_CELL_PARAMETERS = 7  # P_LINEAR as S_LINEAR of the faces
 # constant of the inverse estimate in the residual-based τ (Bazilevs et al. 2007, linear elements)
 C_INV = 36.0
 # indices into the parameter vector of the face kernel
-S_RHO, S_MU, S_GU, S_GP, S_GDIV, S_GGP, S_GGPT, S_DTINV = range(8)
+S_RHO, S_MU, S_GU, S_GP, S_GDIV, S_GGP, S_GGPT, S_DTINV, S_LINEAR = range(9)
+# S_LINEAR != 0: the scalings' velocity is the unknown velocity itself (steady flow), and their
+# derivative belongs in the Jacobian
 
 
 @njit(cache=True, inline="always")
@@ -134,7 +136,7 @@ def residual_stabilization_density(dNx, hx, hy, v0, v1, vo0, vo1, Ve, Voe, Pe, V
     cell, independent of the unknowns, and the integrand stays a polynomial that the cut-cell
     quadrature integrates exactly (which makes the shape derivative of the cut exact). The point
     values ``v``, ``vo`` and gradients ``gv``, ``go`` are those :func:`galerkin_density` computed.
-    Fills ``sp`` with (τ_M, ν_C, ū_x, ū_y) for the Jacobian."""
+    Fills ``sp`` with (τ_M, ν_C, ū_x, ū_y, R_M,x, R_M,y, div v) for the Jacobian."""
     rho = prm[P_RHO]
     mu = prm[P_MU]
     sym = prm[P_SYM]
@@ -188,6 +190,34 @@ def residual_stabilization_density(dNx, hx, hy, v0, v1, vo0, vo1, Ve, Voe, Pe, V
     sp[1] = nuc
     sp[2] = ub0
     sp[3] = ub1
+    sp[4] = r0
+    sp[5] = r1
+    sp[6] = div
+
+
+@njit(cache=True, inline="always")
+def _scalings_derivative(dNx, hx, hy, nu, rho, sp, dS):
+    """``dS[a, c, i]``: derivative by ū_c of the residual-based stabilisation's integrand
+    ``3a + i`` of :func:`residual_stabilization_density` (filled ``sp``) through τ_M, ν_C and
+    the streamline direction, for steady flow (no 1/Δt in τ_M), where ū is the unknown velocity."""
+    tau, nuc, ub0, ub1, r0, r1, div = sp[0], sp[1], sp[2], sp[3], sp[4], sp[5], sp[6]
+    g = (4.0 / (hx * hx), 4.0 / (hy * hy))
+    ub = (ub0, ub1)
+    speed = np.sqrt(ub0 * ub0 + ub1 * ub1)
+    hd = np.sqrt(hx * hx + hy * hy)
+    for c in range(2):
+        dtau = -tau ** 3 * g[c] * ub[c]
+        if speed * hd < 6.0 * nu:  # ν_C = hd² |ū|² / (12 ν)
+            dnuc = hd * hd * ub[c] / (6.0 * nu)
+        elif speed > 0.0:  # ν_C = hd |ū| / 2
+            dnuc = 0.5 * hd * ub[c] / speed
+        else:
+            dnuc = 0.0
+        for a in range(4):
+            dsupg = dtau * (ub0 * dNx[a, 0] + ub1 * dNx[a, 1]) + tau * dNx[a, c]
+            dS[a, c, 0] = dsupg * r0 + rho * dnuc * dNx[a, 0] * div
+            dS[a, c, 1] = dsupg * r1 + rho * dnuc * dNx[a, 1] * div
+            dS[a, c, 2] = dtau / rho * (dNx[a, 0] * r0 + dNx[a, 1] * r1)
 
 
 @njit(cache=True)
@@ -233,8 +263,11 @@ def assemble_fluid_cells(items, xs, ys, nx, conn, cell_ids, qptr, qx, qw, bq, V,
     gv = np.empty((2, 2))
     go = np.empty((2, 2))
     dens = np.empty(12)
-    sp = np.zeros(4)
+    sp = np.zeros(7)
     dR = np.empty((2, 12))  # derivative of the strong momentum residual by the 12 cell unknowns
+    dS = np.empty((4, 2, 3))  # derivative of the three integrands of node a by ū_c (steady flow)
+    linear = prm[P_LINEAR] != 0.0
+    nu = mu / rho
     for k in items:
         c = cell_ids[k]
         x0, y0, hx, hy = _cell_geometry(xs, ys, nx, c)
@@ -285,6 +318,14 @@ def assemble_fluid_cells(items, xs, ys, nx, conn, cell_ids, qptr, qx, qw, bq, V,
                         for i in range(2):
                             for kk in range(2):
                                 Ke[3 * a + i, 3 * b + kk] += w * rho * nuc * dNx[a, i] * dNx[b, kk]
+                if linear:
+                    _scalings_derivative(dNx, hx, hy, nu, rho, sp, dS)
+                    # ū is the mean of the four nodal velocities: d/dV[b, c] = d/dū_c / 4
+                    for a in range(4):
+                        for i in range(3):
+                            for b in range(4):
+                                for kk in range(2):
+                                    Ke[3 * a + i, 3 * b + kk] += 0.25 * w * dS[a, kk, i]
             if want_matrix:
                 for a in range(4):
                     ra = 3 * a
@@ -351,10 +392,16 @@ def assemble_fluid_faces(items, xs, ys, nx, fnodes, faces, ghost_weight, Vbar, V
     """Add CIP (25) and ghost-penalty (26) face terms of the faces ``f`` in ``items``, in that
     order; ``ghost_weight[f]`` scales the ghost
     penalty on face ``f`` (0: none; see :meth:`fsci.cut.state.CutState.ghost_weights`),
-    ``fnodes[f]`` are the six (virtual) nodes of face ``f``'s two cells."""
+    ``fnodes[f]`` are the six (virtual) nodes of face ``f``'s two cells.
+
+    The scalings of (25) are evaluated at the velocity ``Vbar``. With ``prm[S_LINEAR]`` set
+    ``Vbar`` is the unknown velocity (steady flow) and the Jacobian gets the scalings'
+    derivative: through ``u·n`` at the Gauss point and through ``|u|_max`` of the face's nodes,
+    a maximum whose derivative is that of the component attaining it."""
     rho = prm[S_RHO]
     mu = prm[S_MU]
     nu = mu / rho
+    linear = want_matrix and prm[S_LINEAR] != 0.0
     gq = np.array([-1.0 / np.sqrt(3.0), 1.0 / np.sqrt(3.0)])
     N = np.empty(4)
     dN = np.empty((4, 2))
@@ -386,11 +433,18 @@ def assemble_fluid_faces(items, xs, ys, nx, fnodes, faces, ghost_weight, Vbar, V
             nvec0 = 0.0
             nvec1 = 1.0
         umax = 0.0
+        mcol = -1  # the unknown attaining |u|_max, and d|u|_max/d(that unknown)
+        msign = 0.0
         for a in range(6):
-            umax = max(umax, abs(Vbar[fn[a], 0]), abs(Vbar[fn[a], 1]))
+            for c in range(2):
+                if abs(Vbar[fn[a], c]) > umax:
+                    umax = abs(Vbar[fn[a], c])
+                    mcol = 3 * a + c
+                    msign = 1.0 if Vbar[fn[a], c] > 0.0 else -1.0
         regime = nu + 10.0 * h * umax + h * h / 12.0 * prm[S_DTINV]
         tau_div = rho * prm[S_GDIV] * regime * h
         tau_p = prm[S_GP] * h ** 3 / (rho * regime)
+        dregime = 10.0 * h * msign  # d regime / d(unknown mcol)
         tau_gp = ghost_weight[f] * (prm[S_GGP] * rho * nu * h + prm[S_GGPT] * rho * h ** 3 * prm[S_DTINV])
         Ke[:] = 0.0
         Re[:] = 0.0
@@ -421,8 +475,25 @@ def assemble_fluid_faces(items, xs, ys, nx, fnodes, faces, ghost_weight, Vbar, V
                         Ke[3 * a, 3 * b] += jj * (tau_v + tau_div * nvec0 * nvec0)
                         Ke[3 * a + 1, 3 * b + 1] += jj * (tau_v + tau_div * nvec1 * nvec1)
                         Ke[3 * a + 2, 3 * b + 2] += jj * tau_p
+            if linear:
+                # d tau_u = rho g_u h^3 (2 u_n du_n / regime - u_n^2 dregime / regime^2); u_n is
+                # the normal component d of the left/lower cell's four nodes
+                dun = 2.0 * rho * prm[S_GU] * un * h ** 3 / regime
+                for a in range(6):
+                    wj = w * J[a]
+                    for b in range(4):
+                        col = 3 * b + d
+                        Ke[3 * a, col] += wj * jv0 * dun * NL[b]
+                        Ke[3 * a + 1, col] += wj * jv1 * dun * NL[b]
+                    if mcol >= 0:
+                        dtv = -tau_u / regime * dregime
+                        dtd = rho * prm[S_GDIV] * h * dregime
+                        Ke[3 * a, mcol] += wj * (dtv * jv0 + dtd * jdiv * nvec0)
+                        Ke[3 * a + 1, mcol] += wj * (dtv * jv1 + dtd * jdiv * nvec1)
+                        Ke[3 * a + 2, mcol] -= wj * tau_p / regime * dregime * jp
         # n = (1, 0) or (0, 1): the n-n coupling of the divergence jump is within a component
-        add_local(data, rhs, row_base, row_len, start, ndof, nodes, pos[f], Ke, Re, want_matrix, True)
+        # (not so for the scalings' derivative)
+        add_local(data, rhs, row_base, row_len, start, ndof, nodes, pos[f], Ke, Re, want_matrix, not linear)
 
 
 @njit(cache=True)

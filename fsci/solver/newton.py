@@ -14,8 +14,7 @@ Convergence is checked per field (displacement, velocity, pressure): every resid
 ``||R_f||_2 <= max(tol_residual, rtol_residual * ||R_f^(0)||_2)`` and every increment norm
 ``||dx_f||_inf <= tol_increment`` — or, instead of the increments, the residual is at its
 round-off floor: within ``tol_residual`` in every field, passing at the last iterate too, and
-fallen by less than ``1 - FLOOR_RATE`` since (in steady flow also the lagged stabilisation
-velocity settled within ``tol_increment``).
+fallen by less than ``1 - FLOOR_RATE`` since.
 """
 
 from __future__ import annotations
@@ -61,12 +60,12 @@ def _increment_ok(inc_norms: dict[str, float] | None, settings: SolverSettings) 
     return inc_norms is not None and all(v <= settings.tol_increment for v in inc_norms.values())
 
 
-def _likely_converged(system, settings: SolverSettings, it: int, inc_norms: dict[str, float] | None,
+def _likely_converged(settings: SolverSettings, it: int, inc_norms: dict[str, float] | None,
                       layout_changed: bool, res_ok_before: bool) -> bool:
     """Whether iteration ``it`` will probably pass the convergence test: the last update passed
     the increment test, or the residual passed its test at the last iterate already (after one
     more update it is then tiny or at its round-off floor), and nothing else blocks (a changed
-    layout, the minimum iteration count, the steady flow's stabilisation velocity). The
+    layout, the minimum iteration count). The
     residual is then assembled without the matrix first (no complex-step Jacobian of the
     coupling, no matrix entries: 0.27x the cost on the stamp), the matrix only if the test
     fails; the residual is the same either way, so the iterates are too.
@@ -79,9 +78,7 @@ def _likely_converged(system, settings: SolverSettings, it: int, inc_norms: dict
     a residual assembly)."""
     if layout_changed or it - 1 < settings.min_iterations:
         return False
-    if not (_increment_ok(inc_norms, settings) or res_ok_before):
-        return False
-    return not hasattr(system, "converged_extra") or system.converged_extra(settings)
+    return _increment_ok(inc_norms, settings) or res_ok_before
 
 
 def system_cut_follows(system) -> bool:
@@ -137,7 +134,7 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
         for halving in range(BACKTRACK + 1):
             try:
                 layout_changed = system.before_iteration(it) if hasattr(system, "before_iteration") else False
-                asm = system.assemble(ctx, want_matrix=not _likely_converged(system, settings, it, inc_norms,
+                asm = system.assemble(ctx, want_matrix=not _likely_converged(settings, it, inc_norms,
                                                                               layout_changed, res_ok_before))
                 break
             except (SolverError, ArithmeticError) as exc:
@@ -182,16 +179,12 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
         # at the last iterate as well and no longer falls, so the increments are the round-off of
         # the solves (the pressure's, with an absolute tolerance, can stay above it for good) and
         # need not pass theirs (decision 38). Not on the relative test: where Newton converges
-        # linearly (in contact) a residual that passes it can still be creeping; for steady flow
-        # only once its lagged stabilisation velocity changed by at most the increment tolerance
-        # (before, the residual can stall while the state still moves)
-        settled = not ctx.static or not hasattr(system, "lag_settled") or system.lag_settled(settings.tol_increment)
+        # linearly (in contact) a residual that passes it can still be creeping
         small = all(v <= settings.tol_residual for v in norms.values())
-        floor = res_ok_before and bool(totals) and total > FLOOR_RATE * totals[-1] and settled and small
+        floor = res_ok_before and bool(totals) and total > FLOOR_RATE * totals[-1] and small
         solves = it - 1
-        extra_ok = system.converged_extra(settings) if hasattr(system, "converged_extra") else True
         recut = False
-        if res_ok and solves >= settings.min_iterations and not layout_changed and extra_ok:
+        if res_ok and solves >= settings.min_iterations and not layout_changed:
             if not hasattr(system, "cut_is_own") or system.cut_is_own():
                 if inc_ok or tiny or floor:
                     report.converged = True
