@@ -580,11 +580,11 @@ class CouplingTerm:
                 fp[sel, cols[2]] = hx
                 fp[sel, cols[3]] = hy
                 hk = hx * hy / np.maximum(hx, hy)
-                gam = st.gamma_n * f.mu * st.trace_constant / hk
-                if transient:  # steady flow: the convective part at the unknowns (traction._nitsche_gamma)
-                    vmax = np.maximum(np.max(np.abs(f.Vbar[nodes]), axis=(1, 2)), vmax_s[sel])
-                    gam += st.gamma_n * f.rho * (vmax / 6.0 + hk / (12.0 * ctx.theta * ctx.dt))
-                return gam, hk
+                if not transient:  # the convective part at the unknowns (traction._nitsche_gamma)
+                    return st.gamma_n * f.mu * st.trace_constant / hk, hk
+                vmax = np.maximum(np.max(np.abs(f.Vbar[nodes]), axis=(1, 2)), vmax_s[sel])
+                gam = st.gamma_n * (f.mu * st.trace_constant / hk + f.rho * vmax / 6.0)
+                return gam + st.gamma_n * f.rho * hk / (12.0 * ctx.theta * ctx.dt), hk
 
             if not transient:
                 fp[:, tk.F_GAMV] = st.gamma_n * f.rho / 6.0
