@@ -49,7 +49,7 @@ class LinearSolver:
 
     def __init__(self) -> None:
         self.timings = {"analysis": 0.0, "factorization": 0.0, "solve": 0.0}
-        self.counts = {"analysis": 0, "factorization": 0, "solve": 0}
+        self.counts = {"analysis": 0, "factorization": 0, "solve": 0, "chord": 0}  # chord: solves with old factors
 
     def _tick(self, phase: str, t0: float) -> None:
         self.timings[phase] += time.perf_counter() - t0
@@ -65,13 +65,41 @@ class LinearSolver:
     def new_system(self) -> None:
         """A new nonlinear solve begins: factors of the previous one are not reused."""
 
+    def has_factors(self) -> bool:
+        """Whether this nonlinear solve has factors for :meth:`solve_with_factors`."""
+        return False
+
+    def solve_with_factors(self, b: np.ndarray) -> np.ndarray:
+        """One solve with the factors of the last matrix factorised in this nonlinear solve (a
+        chord step: Newton's increment at an iterate whose residual already passes its test,
+        where the increment is only measured, decision 49)."""
+        raise NotImplementedError
+
 
 class SuperLUSolver(LinearSolver):
     name = "superlu"
 
+    def __init__(self) -> None:
+        super().__init__()
+        self._lu = None
+
+    def new_system(self) -> None:
+        self._lu = None
+
+    def has_factors(self) -> bool:
+        return self._lu is not None
+
+    def solve_with_factors(self, b: np.ndarray) -> np.ndarray:
+        t0 = time.perf_counter()
+        x = self._lu.solve(b)
+        self._tick("solve", t0)
+        self.counts["chord"] += 1
+        return x
+
     def solve(self, A: sp.csr_matrix, b: np.ndarray, pattern_key: bytes | None = None,
               rtol: float = 0.0) -> np.ndarray:
         t0 = time.perf_counter()
+        self._lu = None
         try:
             lu = spla.splu(A.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.01,
                            options={"SymmetricMode": True})
@@ -83,6 +111,7 @@ class SuperLUSolver(LinearSolver):
         self._tick("solve", t0)
         if not np.all(np.isfinite(x)):
             raise SolverError("SuperLU returned non-finite values (singular matrix)")
+        self._lu = lu
         return x
 
 
@@ -160,6 +189,16 @@ class PardisoSolver(LinearSolver):
 
     def new_system(self) -> None:
         self._factored = None
+
+    def has_factors(self) -> bool:
+        return self._factored is not None
+
+    def solve_with_factors(self, b: np.ndarray) -> np.ndarray:
+        t0 = time.perf_counter()
+        x = self._phase(self._factored, np.asfortranarray(b, dtype=np.float64).reshape(-1, 1), 33).ravel()
+        self._tick("solve", t0)
+        self.counts["chord"] += 1
+        return x
 
     def _reuse(self, A: sp.csr_matrix, b: np.ndarray, pattern_key: bytes | None, rtol: float) -> np.ndarray | None:
         """GMRES on ``A`` preconditioned with the factors of the last factorised matrix, to the
