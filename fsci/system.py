@@ -200,11 +200,11 @@ class System:
         return any(not s.fixed.all() for s in self.solids)
 
     def before_iteration(self, it: int) -> bool:
-        """Before assembling Newton iteration ``it``: re-cut while the bodies moved more than eps_geom since the last
-        cut and at most ``freeze_cut_after`` iterations into the step or since
-        :meth:`follow_cut_again` was called for a frozen-cut state (paper Sec. 3.4.2; the shape derivative
-        is left out of the Jacobian while the cut is frozen), and apply the solution-space
-        update rule (Sec. 3.4.3). Returns True if the dof layout changed."""
+        """Before assembling Newton iteration ``it``: re-cut while the bodies moved more than
+        eps_geom since the last cut and at most ``freeze_cut_after`` iterations into the step or
+        since :meth:`follow_cut_again` was called for a frozen-cut state (paper Sec. 3.4.2; the
+        shape derivative is left out of the Jacobian while the cut is frozen), and apply the
+        solution-space update rule (Sec. 3.4.3). Returns True if the dof layout changed."""
         f = self.fluid
         if it > 1:
             for term in self.extra_terms:  # contact that swings (held in a repeated attempt, decision 38)

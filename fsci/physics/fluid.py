@@ -131,10 +131,12 @@ def residual_stabilization_density(dNx, hx, hy, v0, v1, vo0, vo1, Ve, Voe, Pe, V
 
         τ_M = ((2/Δt)² + ū·G ū + C_INV ν² G:G)^(-1/2),   ν_C = (h/2)|ū| min(1, |ū| h / (6ν))
 
-    ``ū`` is the frozen stabilisation velocity (``Vbe`` at the nodes; the face scalings use the
-    same field) at the cell centre, so τ, ν_C and the streamline direction are constants of the
-    cell, independent of the unknowns, and the integrand stays a polynomial that the cut-cell
-    quadrature integrates exactly (which makes the shape derivative of the cut exact). The point
+    ``ū`` is the stabilisation velocity (``Vbe`` at the nodes; the face scalings use the same
+    field) at the cell centre, so τ, ν_C and the streamline direction are constants of the
+    cell, and the integrand stays a polynomial that the cut-cell quadrature integrates exactly
+    (which makes the shape derivative of the cut exact). In a time step ``ū`` is the last
+    step's, independent of the unknowns; in steady flow it is the unknown velocity's and the
+    Jacobian adds :func:`_scalings_derivative`. The point
     values ``v``, ``vo`` and gradients ``gv``, ``go`` are those :func:`galerkin_density` computed.
     Fills ``sp`` with (τ_M, ν_C, ū_x, ū_y, R_M,x, R_M,y, div v) for the Jacobian."""
     rho = prm[P_RHO]
