@@ -73,6 +73,14 @@ class LinearSolver:
         """One solve with the factors of the last matrix factorised in this nonlinear solve (a
         chord step: Newton's increment at an iterate whose residual already passes its test,
         where the increment is only measured, decision 49)."""
+        t0 = time.perf_counter()
+        x = self._apply_factors(b)
+        self._tick("solve", t0)
+        self.counts["chord"] += 1
+        return x
+
+    def _apply_factors(self, b: np.ndarray) -> np.ndarray:
+        """``A⁻¹ b`` with the factors of :meth:`has_factors`."""
         raise NotImplementedError
 
 
@@ -89,12 +97,8 @@ class SuperLUSolver(LinearSolver):
     def has_factors(self) -> bool:
         return self._lu is not None
 
-    def solve_with_factors(self, b: np.ndarray) -> np.ndarray:
-        t0 = time.perf_counter()
-        x = self._lu.solve(b)
-        self._tick("solve", t0)
-        self.counts["chord"] += 1
-        return x
+    def _apply_factors(self, b: np.ndarray) -> np.ndarray:
+        return self._lu.solve(b)
 
     def solve(self, A: sp.csr_matrix, b: np.ndarray, pattern_key: bytes | None = None,
               rtol: float = 0.0) -> np.ndarray:
@@ -193,12 +197,9 @@ class PardisoSolver(LinearSolver):
     def has_factors(self) -> bool:
         return self._factored is not None
 
-    def solve_with_factors(self, b: np.ndarray) -> np.ndarray:
-        t0 = time.perf_counter()
-        x = self._phase(self._factored, np.asfortranarray(b, dtype=np.float64).reshape(-1, 1), 33).ravel()
-        self._tick("solve", t0)
-        self.counts["chord"] += 1
-        return x
+    def _apply_factors(self, b: np.ndarray) -> np.ndarray:
+        """A plain solve (phase 33) with the factors of the last factorised matrix."""
+        return self._phase(self._factored, np.asfortranarray(b, dtype=np.float64).reshape(-1, 1), 33).ravel()
 
     def _reuse(self, A: sp.csr_matrix, b: np.ndarray, pattern_key: bytes | None, rtol: float) -> np.ndarray | None:
         """GMRES on ``A`` preconditioned with the factors of the last factorised matrix, to the
@@ -207,13 +208,9 @@ class PardisoSolver(LinearSolver):
         if self.max_krylov <= 0 or self._factored is None or pattern_key is None or pattern_key != self._key \
                 or self._factored.shape != A.shape:
             return None
-        F = self._factored
         t0 = time.perf_counter()
-        def precondition(r: np.ndarray) -> np.ndarray:  # a plain solve with the old factors
-            return self._phase(F, np.asfortranarray(r, dtype=np.float64).reshape(-1, 1), 33).ravel()
-
         tol = max(self.RTOL, rtol)
-        x, its = right_preconditioned_gmres(A, b, precondition, tol, self.max_krylov)
+        x, its = right_preconditioned_gmres(A, b, self._apply_factors, tol, self.max_krylov)
         self._tick("solve", t0)
         self.counts["krylov"] += its
         if x is None or not np.all(np.isfinite(x)) or np.linalg.norm(A @ x - b) > tol * max(np.linalg.norm(b), 1e-300):

@@ -149,12 +149,17 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
     matrix_layout = None  # the dof layout of the last solve with a matrix: the linear solver's factors are of it
     chorded = False  # a chord step was taken in this solve
     last_chord = False  # the last update was one
+
+    def factors_at_hand() -> bool:
+        """The linear solver has factors of a matrix of the current dof layout."""
+        return matrix_layout is system.layout and linear.has_factors()
+
     for it in range(1, settings.max_iterations + 2):
         for halving in range(BACKTRACK + 1):
             try:
                 layout_changed = system.before_iteration(it) if hasattr(system, "before_iteration") else False
-                chord_ahead = (not chorded and matrix_layout is system.layout and linear.has_factors()
-                               and bool(totals) and totals[-1] ** 2 <= settings.tol_residual)
+                chord_ahead = (not chorded and factors_at_hand() and bool(totals)
+                               and totals[-1] ** 2 <= settings.tol_residual)
                 asm = system.assemble(ctx, want_matrix=not _residual_first(settings, it, inc_norms, layout_changed,
                                                                             res_ok_before, chord_ahead))
                 break
@@ -234,8 +239,7 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
         totals.append(total)
         # the residual passes, only the increment is still to be measured: a chord step with the
         # factors at hand, once per solve (decision 49)
-        chord = (res_ok and not chorded and not recut and not layout_changed and matrix_layout is system.layout
-                 and linear.has_factors())
+        chord = res_ok and not chorded and not recut and not layout_changed and factors_at_hand()
         chorded |= chord
         if not asm.want_matrix and not chord:  # predicted convergence did not happen: the same state with its matrix
             try:
