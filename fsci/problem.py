@@ -163,6 +163,7 @@ class SolverSettings:
     rtol_residual: float = 1e-10
     damping: bool = True
     relaxation: bool = True  # Aitken relaxation of the Newton update while the cut follows the iterates
+    predictor: str = "constant_velocity"  # Newton's start in a time step (or "constant_acceleration")
     linear: str = "auto"
     forcing: float = 0.9  # largest relative residual of a linear solve with reused factors (0: exact)
     max_step_cuts: int = 6

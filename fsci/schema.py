@@ -846,6 +846,11 @@ SOLVER = Table([
     Key("relaxation", Bool(), True, "Aitken relaxation of the Newton update while the cut follows the "
         "iterates, where the Jacobian lacks part of the cut's motion (contact) and Newton can overshoot "
         "back and forth (docs/architecture.md, decision 34)"),
+    Key("predictor", Str(("constant_velocity", "constant_acceleration")), "constant_velocity",
+        "Newton's start in a time step: the last step's velocities (and the displacement they give), or "
+        "the velocities and the fluid pressure extrapolated linearly in time from the last two steps; the "
+        "latter where bodies move smoothly (a step then needs about one Newton iteration fewer), the former "
+        "where they hit or let go often (docs/architecture.md, decision 50)"),
     Key("linear", Str(("auto", "pardiso", "superlu")), "auto", "linear solver (auto: PARDISO if installed)"),
     Key("forcing", Num(0.0, 1.0, hi_open=True), 0.9, "largest relative residual of a linear solve that "
         "reuses factors (inexact Newton, forcing term of Eisenstat and Walker); 0: every solve exact"),

@@ -177,7 +177,8 @@ class Simulation:
         hold_pockets = True  # a pocket that opens and shuts is held dry (decision 36)
         while True:
             saved = snapshot(self.system)
-            ctx = StepContext(self.t, self.t + dt, dt, p.time.theta, static, self._load_lead(dt) if static else 0.0)
+            lead = self._load_lead(dt) if static else (dt if p.solver.predictor == "constant_acceleration" else 0.0)
+            ctx = StepContext(self.t, self.t + dt, dt, p.time.theta, static, lead)
             try:
                 self._in_solve = True  # a signal now stops at once: the step start is restored
                 try:

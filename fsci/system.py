@@ -445,13 +445,14 @@ class System:
 
 
 FLUID_STATE = FLUID_VALUES + ("active", "vnode_node", "vnode_rep")
+SOLID_STATE = ("U", "V", "Un", "Vn", "Vrate")
 
 
 def snapshot(system: System) -> dict[str, np.ndarray]:
     """Copy of every state array of the system (for step retries and checkpoints)."""
     state: dict[str, np.ndarray] = {}
     for s in system.solids:
-        for k in ("U", "V", "Un", "Vn"):
+        for k in SOLID_STATE:
             state[f"solid{s.index}.{k}"] = getattr(s, k).copy()
     if system.fluid is not None:
         f = system.fluid
@@ -466,8 +467,10 @@ def restore(system: System, state: dict[str, np.ndarray]) -> None:
     """Inverse of :func:`snapshot`; rebuilds the layout if the ACTIVE set differs. The cut is
     recomputed by the next ``begin_step`` (callers that need it before call ``update_cut``)."""
     for s in system.solids:
-        for k in ("U", "V", "Un", "Vn"):
-            setattr(s, k, state[f"solid{s.index}.{k}"].copy())
+        for k in SOLID_STATE:
+            # checkpoints written before the constant-acceleration predictor lack the rate
+            default = np.zeros_like(s.U) if k == "Vrate" else None
+            setattr(s, k, state.get(f"solid{s.index}.{k}", default).copy())
     if system.fluid is not None:
         f = system.fluid
         old_active = f.active.copy()

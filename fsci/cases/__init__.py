@@ -32,7 +32,7 @@ CASES: dict[str, BuiltinCase] = {
     "turek-hron-fsi1": BuiltinCase("Turek-Hron FSI1: elastic bar behind a cylinder, steady, both embedded (CutFEM)",
                                    turek_hron.fsi1, "~20 s"),
     "stamp": BuiltinCase("Paper Sec. 4.1: rounded elastic stamp falls onto a rigid slab in fluid, rests, lifts off "
-                         "(--set variant=navslip|noslip|slip|noslip-incpen|navslip-incpen)", stamp.stamp, "~4 min"),
+                         "(--set variant=navslip|noslip|slip|noslip-incpen|navslip-incpen)", stamp.stamp, "~3 min"),
     "sinking-disk": BuiltinCase("Elastic disk sinking under gravity in quiescent fluid (monolithic FSI)",
                                 sinking_disk.sinking_disk, "~45 s"),
     "hertz": BuiltinCase("Hertz contact of a cylinder on a rigid flat (dry Nitsche contact)",
