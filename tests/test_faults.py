@@ -116,6 +116,25 @@ def test_damaged_or_mismatched_checkpoint_is_refused(tmp_path, capsys):
     assert len(err.splitlines()) == 1 and "case.toml" in err
 
 
+def test_a_checkpoint_without_the_solids_rate_resumes(tmp_path):
+    """A checkpoint written before the solid's velocity rate was stored (the constant-
+    acceleration predictor's, docs/architecture.md decision 50) resumes: the first step after
+    it starts from the constant-velocity predictor, and the run ends where an uninterrupted one
+    does within the solver tolerance (not bit for bit: its first step starts elsewhere)."""
+    full, old = tmp_path / "full", tmp_path / "old"
+    assert main(["run", "sinking-disk", *SMALL, "--out", str(full)]) == 0
+    assert main(["run", "sinking-disk", *SMALL, "--set", "time.t_end=0.04", "--out", str(old)]) == 0
+    ck = old / "checkpoint.npz"
+    with np.load(ck) as data:
+        arrays = {k: data[k] for k in data.files if k != "solid0.Vrate"}
+    assert len(arrays) == len(np.load(ck).files) - 1
+    np.savez(ck, **arrays)
+    assert main(["resume", str(old), "--set", "time.t_end=0.12"]) == 0
+    a, b = (np.genfromtxt(d / "history.csv", delimiter=",", names=True) for d in (full, old))
+    assert len(a) == len(b) == 6
+    np.testing.assert_allclose(b["uy_center"], a["uy_center"], rtol=0, atol=1e-9)
+
+
 def test_resume_without_the_field_files_lists_only_files_that_exist(tmp_path):
     """A run directory carried on without its vtu/ folder (case.toml and checkpoint.npz only):
     the resumed run writes its new outputs, and fields.pvd lists those, not the missing ones.
