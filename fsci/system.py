@@ -468,9 +468,9 @@ def restore(system: System, state: dict[str, np.ndarray]) -> None:
     recomputed by the next ``begin_step`` (callers that need it before call ``update_cut``)."""
     for s in system.solids:
         for k in SOLID_STATE:
-            # checkpoints written before the constant-acceleration predictor lack the rate
-            default = np.zeros_like(s.U) if k == "Vrate" else None
-            setattr(s, k, state.get(f"solid{s.index}.{k}", default).copy())
+            key = f"solid{s.index}.{k}"
+            # checkpoints written before the constant-acceleration predictor lack the rate (only it)
+            setattr(s, k, state[key].copy() if key in state or k != "Vrate" else np.zeros_like(s.U))
     if system.fluid is not None:
         f = system.fluid
         old_active = f.active.copy()
