@@ -192,3 +192,26 @@ def test_a_held_dry_region_is_not_fluid():
                    [cs.interface_points(k, ~cs.segments.fs)[0] for k in range(len(bodies))])
     # the two walls of the held part of the slot and its end
     assert abs(sc_length(held) - sc_length(open_) - (2 * 0.08 + 0.01)) < 1e-12
+
+
+@pytest.mark.parametrize("x0, x1", [
+    (0.33, 0.57),     # off every side: each side is fluid whole (no GEOS call)
+    (0.0, 0.57),      # its side on the box's left side: that side's fluid ends at the body
+    (-0.2, 0.57),     # through the left side
+    (0.43, 1.0 - 1e-13),  # ending 1e-13 short of the right side: a sliver of fluid stays there
+])
+@pytest.mark.parametrize("y0", [0.0, 0.2371])  # standing on the bottom, or off it
+def test_the_physical_part_of_each_box_side(x0, x1, y0):
+    """``boundary_pieces``: the PHYSICAL part of every grid edge on each box side, against the
+    intersection of that edge with the fluid region (GEOS), edge by edge."""
+    o = rect_outline(0, x0, y0, x1, 0.61)
+    cs = CutState(GRID, [o])
+    X = GRID.nodes
+    for side in ("left", "right", "bottom", "top"):
+        edges = GRID.side_edges(side)
+        k, s0, s1, vn = cs.boundary_pieces(side)
+        got = np.zeros(len(edges))
+        np.add.at(got, k, (s1 - s0) * np.linalg.norm(X[edges[k, 1]] - X[edges[k, 0]], axis=1))
+        want = shapely.length(shapely.intersection(shapely.linestrings(X[edges]), cs.fluid))
+        assert np.allclose(got, want, rtol=0.0, atol=1e-15), side
+        assert np.all((s0 >= 0.0) & (s1 <= 1.0) & (s1 - s0 > 1e-14)) and np.array_equal(vn, GRID.side_edges(side)[k])
