@@ -48,9 +48,9 @@ CASES: dict[str, BuiltinCase] = {
                                    moving_cylinder.moving_cylinder, "~20 s"),
     "pump": BuiltinCase("Paper Sec. 4.2: elastic valve pump, chamber squeezed periodically, two two-flap valves "
                         "(reconstructed; --set A2=1 for A = 1 throughout; the valve zones 4 times finer than the "
-                        "paper's grid, --set r=1 for the paper's grid; about 6.5 s per step on 2 shared cores; the "
+                        "paper's grid, --set r=1 for the paper's grid; about 3.5 s per step on 2 shared cores; the "
                         "inflow valve's openings at A = 1.5 cost a few step cuts, docs/cases/pump.md)", pump.pump,
-                        "~5 h"),
+                        "~2.5 h"),
     "squeezed": BuiltinCase("Paper Sec. 4.3: elastic body carried by channel flow and squeezed through an elastic "
                             "structure with three barriers (reconstructed; --set n=20 --set hb=0.03 for a coarse grid; "
                             "wall time of the whole run, shared cores)", squeezed.squeezed, "~6 h"),
