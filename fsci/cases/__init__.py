@@ -53,7 +53,8 @@ CASES: dict[str, BuiltinCase] = {
                         "~2.5 h"),
     "squeezed": BuiltinCase("Paper Sec. 4.3: elastic body carried by channel flow and squeezed through an elastic "
                             "structure with three barriers (reconstructed; --set n=20 --set hb=0.03 for a coarse grid; "
-                            "wall time of the whole run, shared cores)", squeezed.squeezed, "~6 h"),
+                            "wall time of the whole run projected from its first 200 steps, docs/cases/squeezed.md)",
+                            squeezed.squeezed, "~4 h"),
     "lift-off": BuiltinCase("Elastic block on a slab in fluid lifts off when the ambient pressure reaches its load "
                             "(FSCI, extension)", fsci_checks.lift_off, "~1 min"),
     "contact-sweep": BuiltinCase("Quasi-static push through fluid onto a slab and back: continuity of the FSI -> "
