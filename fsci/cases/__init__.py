@@ -50,7 +50,7 @@ CASES: dict[str, BuiltinCase] = {
                         "(reconstructed; --set A2=1 for A = 1 throughout; the valve zones 4 times finer than the "
                         "paper's grid, --set r=1 for the paper's grid; about 3.5 s per step on 2 shared cores; the "
                         "inflow valve's openings at A = 1.5 cost a few step cuts, docs/cases/pump.md)", pump.pump,
-                        "~2.5 h"),
+                        "~2 h"),
     "squeezed": BuiltinCase("Paper Sec. 4.3: elastic body carried by channel flow and squeezed through an elastic "
                             "structure with three barriers (reconstructed; --set n=20 --set hb=0.03 for a coarse grid; "
                             "wall time of the whole run projected from its first 200 steps, docs/cases/squeezed.md)",
