@@ -304,10 +304,7 @@ class CutState:
             h = float(diag[cells].max())
             (islands if size < self.island_factor * h or self._is_trapped_film(part, h) else keep).append(part)
         self.fluid = shapely.union_all(keep) if keep else shapely.Polygon()
-        # bounds (x0, y0, x1, y1) of all that is not fluid: a box side they do not reach is fluid whole
-        dry = shapely.bounds(np.array([solid, *islands], dtype=object))
-        self.dry_bounds = (np.nanmin(dry[:, 0]), np.nanmin(dry[:, 1]), np.nanmax(dry[:, 2]), np.nanmax(dry[:, 3])) \
-            if not np.isnan(dry).all() else None
+        self._dry = [solid, *islands]  # all that is not fluid (its bounds: _side_is_fluid)
         # connected pieces, largest first (two pieces touching in a point are two pieces)
         self.pieces = sorted(shapely.get_parts(self.fluid), key=lambda q: -q.area) if keep else []
         if len(self.pieces) > 1:
@@ -1060,10 +1057,12 @@ class CutState:
         """Whether nothing but fluid reaches box side ``side``: the bounds of the bodies, closed
         films, held-dry regions and dropped islands stay strictly off its line (then no GEOS
         intersection is needed to find its PHYSICAL part)."""
-        if self.dry_bounds is None:
+        dry = shapely.bounds(np.array(self._dry, dtype=object))  # (x0, y0, x1, y1) per part, NaN if empty
+        if np.isnan(dry).all():
             return True
         x0, x1, y0, y1 = self.grid.box
-        d0, e0, d1, e1 = self.dry_bounds
+        d0, e0 = np.nanmin(dry[:, :2], axis=0)
+        d1, e1 = np.nanmax(dry[:, 2:], axis=0)
         return {"left": d0 > x0, "right": d1 < x1, "bottom": e0 > y0, "top": e1 < y1}[side]
 
     @property
