@@ -34,7 +34,7 @@ from fsci.post.quantities import QuantityEvaluator, relative_mass_error
 from fsci.problem import Problem, load_step_ratio
 from fsci.solver.linear import make_linear_solver
 from fsci.solver.newton import NewtonReport, solve_nonlinear
-from fsci.system import HOLD_LEAK, System, restore, snapshot
+from fsci.system import HOLD_LEAK, HOLD_LEAK_FALLBACK, System, restore, snapshot
 
 EPS_T = 1e-12
 
@@ -175,6 +175,8 @@ class Simulation:
         cuts = 0
         hold = False  # contact that swings is held (decision 38)
         hold_pockets = True  # a pocket that opens and shuts is held dry (decision 36)
+        leak_bound = HOLD_LEAK  # a held state that loses more is solved again without the hold
+        refused_leak = None  # the error of the held state refused at this step size
         while True:
             saved = snapshot(self.system)
             lead = self._load_lead(dt) if static else (dt if p.solver.predictor == "constant_acceleration" else 0.0)
@@ -203,16 +205,26 @@ class Simulation:
             if rep.converged:
                 self.system.finish_step(ctx)
                 leak = relative_mass_error(self.system) if self.system.holds_pocket() else 0.0
-                if leak <= HOLD_LEAK:
+                if leak <= leak_bound:
                     break
                 # fluid flowed through the held region's edge: the same step without the hold
                 restore(self.system, saved)
                 hold_pockets = False
+                refused_leak = leak
                 if self.monitor is not None:
                     self.monitor.message(f"step {self.step + 1} at t={self.t:.6g}: the state with a pocket held "
                                          f"dry loses {leak:.2g} of the flux; repeated without the hold")
                 continue
             restore(self.system, saved)
+            if refused_leak is not None and refused_leak <= HOLD_LEAK_FALLBACK and leak_bound < HOLD_LEAK_FALLBACK:
+                # it fails without the hold: the held state it refused, solved again, is accepted
+                # rather than the step cut (decision 51)
+                leak_bound = HOLD_LEAK_FALLBACK
+                hold_pockets = True
+                if self.monitor is not None:
+                    self.monitor.message(f"step {self.step + 1} at t={self.t:.6g}: {rep.reason} without the hold; "
+                                         f"the held state (loss {refused_leak:.2g} of the flux) is solved again and kept")
+                continue
             if not hold and dt < self.nominal_dt(self.t)[0] and self.system.contact_swung():
                 # a step already cut below the schedule in which contact swung back and forth: a
                 # smaller one does not help (the residual's round-off floor rises as 1/Δt), the
@@ -236,6 +248,7 @@ class Simulation:
                                   f"(dt = {dt:.4g}): {rep.reason}")
             dt = new_dt
             hold_pockets = True
+            leak_bound, refused_leak = HOLD_LEAK, None
         row_values = self.quantities.step_values()
         self.system.end_step(ctx)
         self.t = ctx.t_new

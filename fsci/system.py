@@ -30,6 +30,10 @@ HOLD_MARGIN = 0.05  # a held region is grown by this × (smallest cell side): th
 # and a larger error repeats the step without the hold (decision 36). About twice what the
 # squeezed body's states have without any hold (1.7e-6); the pump's held states stay below it.
 HOLD_LEAK = 3e-6
+# where the repeat without the hold fails, the held state is accepted after all if its error is
+# at most this (decision 51): the step is solved once more with the hold instead of being cut,
+# which on the pump's shutting outflow valve refused held states of 3e-6 … 6.7e-6 step after step
+HOLD_LEAK_FALLBACK = 1e-5
 # times in a step a converged state is solved again without the nodes that grow-only re-cuts kept
 # (decision 41); after that, such a state is accepted as it is
 MAX_OWN_DROPS = 2
