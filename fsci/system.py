@@ -28,7 +28,7 @@ HOLD_MARGIN = 0.05  # a held region is grown by this × (smallest cell side): th
 # largest mass-balance error Φ¹_err of a state converged with a held region, relative to the
 # step's largest flux: fluid flows through the held region's edge, where nothing holds it back,
 # and a larger error repeats the step without the hold (decision 36). About twice what the
-# squeezed body's states have without any hold (1.7e-6); the pump's held states stay below it.
+# squeezed body's states have without any hold (1.7e-6); most of the pump's held states stay below it.
 HOLD_LEAK = 3e-6
 # where the repeat without the hold fails, the held state is accepted after all if its error is
 # at most this (decision 51): the step is solved once more with the hold instead of being cut,
