@@ -211,9 +211,8 @@ class Simulation:
                 restore(self.system, saved)
                 hold_pockets = False
                 refused_leak = leak
-                if self.monitor is not None:
-                    self.monitor.message(f"step {self.step + 1} at t={self.t:.6g}: the state with a pocket held "
-                                         f"dry loses {leak:.2g} of the flux; repeated without the hold")
+                self._report_retry(f"the state with a pocket held dry loses {leak:.2g} of the flux; "
+                                   f"repeated without the hold")
                 continue
             restore(self.system, saved)
             if refused_leak is not None and refused_leak <= HOLD_LEAK_FALLBACK and leak_bound < HOLD_LEAK_FALLBACK:
@@ -221,24 +220,19 @@ class Simulation:
                 # rather than the step cut (decision 51)
                 leak_bound = HOLD_LEAK_FALLBACK
                 hold_pockets = True
-                if self.monitor is not None:
-                    self.monitor.message(f"step {self.step + 1} at t={self.t:.6g}: {rep.reason} without the hold; "
-                                         f"the held state (loss {refused_leak:.2g} of the flux) is solved again and kept")
+                self._report_retry(f"{rep.reason} without the hold; the held state (loss {refused_leak:.2g} "
+                                   f"of the flux) is solved again and kept")
                 continue
             if not hold and dt < self.nominal_dt(self.t)[0] and self.system.contact_swung():
                 # a step already cut below the schedule in which contact swung back and forth: a
                 # smaller one does not help (the residual's round-off floor rises as 1/Δt), the
                 # same one with that contact held does (decision 38)
                 hold = True
-                if self.monitor is not None:
-                    self.monitor.message(f"step {self.step + 1} at t={self.t:.6g}: {rep.reason}; "
-                                         f"repeated with the contact that swung held")
+                self._report_retry(f"{rep.reason}; repeated with the contact that swung held")
                 continue
             cuts += 1
             new_dt = dt * p.solver.step_cut_factor
-            if self.monitor is not None:
-                self.monitor.message(f"step {self.step + 1} at t={self.t:.6g}: {rep.reason}; "
-                                     f"retrying with dt={new_dt:.4g}")
+            self._report_retry(f"{rep.reason}; retrying with dt={new_dt:.4g}")
             if self.out_dir is not None:  # the last completed step, before a risky retry or the stop
                 self.checkpoint()
             if cuts > p.solver.max_step_cuts or new_dt < p.solver.dt_min:
@@ -263,6 +257,11 @@ class Simulation:
         for hook in self.step_hooks:
             hook(self, ctx, rep)
         return ctx
+
+    def _report_retry(self, what: str) -> None:
+        """Tell the monitor why the step being solved is tried again, and how."""
+        if self.monitor is not None:
+            self.monitor.message(f"step {self.step + 1} at t={self.t:.6g}: {what}")
 
     def _load_lead(self, dt: float) -> float:
         """``lead`` of a static step of size ``dt`` from now (:class:`StepContext`): the ratio of
