@@ -9,10 +9,11 @@ One :class:`CutState` per geometry holds everything the fluid and coupling terms
   fluid part of the node's cells, so that fluid on both sides of a body thinner than a cell or
   of a shut valve is not coupled; ACTIVE virtual nodes and the faces that carry CIP / ghost
   penalty;
-* volume quadrature on the physical part of cut cells: the fluid polygon of the cell is
-  triangulated (constrained Delaunay, GEOS) and integrated with a collapsed Gauss rule exact
-  for total degree ``quad_degree`` (5 by default: every Galerkin integrand of (22) on a
-  rectangle is of total degree ≤ 5);
+* volume quadrature on the physical part of cut cells: a collapsed Gauss rule exact for total
+  degree ``quad_degree`` (5 by default: every Galerkin integrand of (22) on a rectangle is of
+  total degree ≤ 5) on signed triangles from the cell's corner to the pieces of its fluid's
+  boundary (:mod:`fsci.cut.clip`), or, where that walk is not defined, on a constrained
+  Delaunay triangulation of the fluid polygon that GEOS clips from the cell;
 * interface segments: every interface edge of every body split at grid lines, at crossings
   with other bodies' outlines and at the box boundary; each piece knows its body, edge, local
   coordinate range, background cell and whether it bounds fluid (Γ^FS) or not (Γ^SC: inside
@@ -40,6 +41,7 @@ import numpy as np
 import shapely
 from numba import njit
 
+from fsci.cut.clip import clip_cells
 from fsci.fem.quadrature import gauss_quad, triangle_rule
 from fsci.geometry.outlines import Outline
 from fsci.mesh.grid import Grid
@@ -351,18 +353,24 @@ class CutState:
     def _classify_cells(self) -> None:
         """FLUID / CUT / SOLID per cell. A cell whose open interior no segment of the fluid
         region's boundary can meet (exact: axis-separated, or the segment's line strictly misses
-        the closed cell) is entirely fluid or entirely solid, decided by its centre; only the
-        others are clipped (GEOS) and classified by the area of their fluid part."""
+        the closed cell) is entirely fluid or entirely solid, decided by its centre; the others
+        are clipped from the region's rings (:mod:`fsci.cut.clip`), or by GEOS where that walk
+        is not well defined, and classified by the area of their fluid part."""
         g = self.grid
         n = g.n_cells
         state = np.full(n, SOLID, dtype=np.int8)
-        self.polygons: dict[int, shapely.Geometry] = {}
+        self._polys: dict[int, shapely.Geometry] = {}  # fluid of the cut cells clipped by GEOS
+        # Gauss points of the cut cells clipped from the rings: cell, point, weight
+        self._fan = (np.zeros(0, dtype=np.int64), np.zeros((0, 2)), np.zeros(0))
         area_cell = g.cell_size[:, 0] * g.cell_size[:, 1]
         self.fluid_area = np.zeros(n)
+        self.clipped_by_geos = 0
         if self.fluid.is_empty:
             self.state = state
             return
-        xy, ring = shapely.get_coordinates(shapely.get_rings(shapely.get_parts(self.fluid)), return_index=True)
+        parts = shapely.get_parts(self.fluid)
+        rings = shapely.get_rings(parts)
+        xy, ring = shapely.get_coordinates(rings, return_index=True)
         same = ring[1:] == ring[:-1]
         crossed = np.zeros(n, dtype=np.bool_)
         _crossed_cells(xy[:-1][same], xy[1:][same], g.xs, g.ys, crossed)
@@ -375,10 +383,19 @@ class CutState:
         self.fluid_area[inside] = area_cell[inside]
         cand = np.nonzero(crossed)[0]
         if len(cand):
-            boxes = shapely.box(g.xs[ij[cand, 0]], g.ys[ij[cand, 1]], g.xs[ij[cand, 0] + 1], g.ys[ij[cand, 1] + 1])
-            parts = shapely.intersection(boxes, self.fluid)
-            parts = np.array([_polygonal(p) for p in parts], dtype=object)
-            areas = shapely.area(parts)
+            exterior = np.zeros(len(rings), dtype=bool)
+            exterior[np.cumsum(np.concatenate([[0], shapely.get_num_interior_rings(parts)[:-1] + 1]))] = True
+            rstart = np.searchsorted(ring, np.arange(len(rings) + 1))
+            areas, irregular, q_k, q_x, q_w = clip_cells(xy, rstart, exterior, g.xs, g.ys, cand, self.separate_parts,
+                                                        self.quad_degree)
+            geos = np.nonzero(irregular)[0]
+            self.clipped_by_geos = len(geos)
+            polys = np.zeros(0, dtype=object)
+            if len(geos):
+                cg = cand[geos]
+                boxes = shapely.box(g.xs[ij[cg, 0]], g.ys[ij[cg, 1]], g.xs[ij[cg, 0] + 1], g.ys[ij[cg, 1] + 1])
+                polys = np.array([_polygonal(p) for p in shapely.intersection(boxes, self.fluid)], dtype=object)
+                areas[geos] = shapely.area(polys)
             rel = areas / area_cell[cand]
             full = rel >= 1.0 - AREA_TOL
             empty = rel <= AREA_TOL
@@ -387,9 +404,26 @@ class CutState:
             cut = ~full & ~empty
             state[cand[cut]] = CUT
             self.fluid_area[cand[cut]] = areas[cut]
-            for c, p in zip(cand[cut], parts[cut]):
-                self.polygons[int(c)] = p
+            for c, p, is_cut in zip(cand[geos].tolist(), polys, cut[geos]):
+                if is_cut:
+                    self._polys[c] = p
+            fan = cut[q_k]
+            self._fan = (cand[q_k[fan]], q_x[fan], q_w[fan])
         self.state = state
+
+    @property
+    def polygons(self) -> dict[int, shapely.Geometry]:
+        """Fluid part of every CUT cell as a GEOS geometry (computed on first use where the cell
+        was clipped without GEOS)."""
+        return {int(c): self._cut_polygon(int(c)) for c in self.cut_cells}
+
+    def _cut_polygon(self, c: int) -> shapely.Geometry:
+        if c not in self._polys:
+            g = self.grid
+            i, j = g.cell_ij[c]
+            self._polys[c] = _polygonal(shapely.intersection(shapely.box(g.xs[i], g.ys[j], g.xs[i + 1], g.ys[j + 1]),
+                                                             self.fluid))
+        return self._polys[c]
 
     def piece_of(self, points: np.ndarray) -> np.ndarray:
         """Label of the fluid piece containing each point (the nearest piece for a point
@@ -433,24 +467,27 @@ class CutState:
         pts_f = (x0[:, None, :] + 0.5 * (xi[None] + 1.0) * size[:, None, :])
         wts_f = w[None, :] * (0.25 * size[:, 0] * size[:, 1])[:, None]
         part_f = fluid_cells
-        # cells whose fluid is several polygons (a body thinner than the cell through it, a shut valve)
-        self.split_cells = {c: np.array(shapely.get_parts(p)) for c, p in self.polygons.items()
+        # cells whose fluid is several polygons (a body thinner than the cell through it, a shut
+        # valve): only among those clipped by GEOS (the others are crossed by one stretch of ring)
+        self.split_cells = {c: np.array(shapely.get_parts(p)) for c, p in self._polys.items()
                             if shapely.get_num_geometries(p) > 1} if self.separate_parts else {}
-        cut_cells = np.array(sorted(self.polygons), dtype=np.int64)
-        pts_c, wts_c, owner_c = np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=np.int64)
-        if len(cut_cells):
-            # all triangles of all cut cells at once (same triangles, same order as one cell at a time)
-            tris = shapely.constrained_delaunay_triangles(np.array([self.polygons[int(c)] for c in cut_cells], dtype=object))
+        owner_c, pts_c, wts_c = self._fan
+        geos_cells = np.array(sorted(self._polys), dtype=np.int64)
+        if len(geos_cells):
+            # all triangles of these cells at once (same triangles, same order as one cell at a time)
+            tris = shapely.constrained_delaunay_triangles(np.array([self._polys[int(c)] for c in geos_cells], dtype=object))
             parts, which = shapely.get_parts(tris, return_index=True)
             keep = shapely.area(parts) > 0.0
             parts, which = parts[keep], which[keep]
             xy, ring = shapely.get_coordinates(shapely.get_exterior_ring(parts), return_index=True)
             first = np.searchsorted(ring, np.arange(len(parts)))
             verts = xy[first[:, None] + np.arange(3)[None, :]].reshape(-1, 3, 2)
-            pts_c, wts_c = triangle_rule(verts, self.quad_degree)
-            cell_t = cut_cells[which]
+            pts_g, wts_g = triangle_rule(verts, self.quad_degree)
+            cell_t = geos_cells[which]
             part_t = cell_t + g.n_cells * self.local_part(cell_t, verts.mean(axis=1))
-            owner_c = np.repeat(part_t, len(wts_c) // max(len(parts), 1))
+            pts_c = np.vstack([pts_c, pts_g])
+            wts_c = np.concatenate([wts_c, wts_g])
+            owner_c = np.concatenate([owner_c, np.repeat(part_t, len(wts_g) // max(len(parts), 1))])
         pts = np.vstack([pts_f.reshape(-1, 2), pts_c])
         wts = np.concatenate([wts_f.ravel(), wts_c])
         owner = np.concatenate([np.repeat(part_f, 4), owner_c])
@@ -760,8 +797,8 @@ class CutState:
         for k, (c, m) in enumerate(zip(cells.tolist(), local.tolist())):
             if c in self.split_cells:
                 out[k] = self.split_cells[c][m]
-            elif c in self.polygons:
-                out[k] = self.polygons[c]
+            elif self.state[c] == CUT:
+                out[k] = self._cut_polygon(c)
             else:
                 out[k] = boxes[k]
         return out
