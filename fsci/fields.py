@@ -554,7 +554,9 @@ class FluidField:
         conn = self.gnode[self.int_conn]
         Vo = self.Vn if not ctx.static else self.V
         ub = self.scaling_velocity(ctx)
-        if self._blocks_of is None or self._blocks_of[0] is not self.int_cells or self._blocks_of[1] is not self.faces:
+        if self._blocks_of is None or not (np.array_equal(self._blocks_of[0], self.int_cells)
+                                           and np.array_equal(self._blocks_of[1], self.faces)):
+            # (a re-cut inside a step mostly keeps the cells and faces: then so do their blocks)
             self._blocks = (fk.coloured_blocks(g.cell_ij[self.int_cells]), fk.coloured_blocks(g.cell_ij[self.faces[:, 0]]))
             self._blocks_of = (self.int_cells, self.faces)
         cells = (g.xs, g.ys, g.nx, self.int_conn, self.int_cells, self.qptr, self.qx, self.qw, body_force_q, self.V,
