@@ -299,3 +299,21 @@ def test_the_increment_at_a_passing_residual_is_measured_with_the_factors_at_han
         assert system.with_matrix == rep.iterations - linear.counts["chord"]
         runs[name] = rep.iterations
     assert runs and len(set(runs.values())) == 1
+
+
+def test_a_chord_step_within_the_increment_tolerance_ends_the_solve():
+    """Where the chord step of decision 49 measures an increment within its tolerance, the
+    iterate it was measured at is converged (decision 53): the solve ends there, with that
+    iterate's own residual checked, and the correction is neither applied nor checked by
+    another residual. So every iterate Newton reaches is assembled once, and none after the
+    last solve (without the rule: one assembly more, at the corrected iterate)."""
+    settings = SolverSettings(max_iterations=25, tol_residual=1e-5, tol_increment=1e-6)
+    linear = make_linear_solver("superlu")
+    system = CubicSystem()
+    rep = solve_nonlinear(system, StepContext(0.0, 1.0, 1.0, 1.0, True), settings, linear)
+    assert rep.converged and rep.on_chord
+    assert linear.counts["chord"] == 1
+    assert system.with_matrix + system.without == rep.iterations
+    x = system.x  # the iterate the chord step was measured at (residual 1.2e-7), not corrected
+    r = np.linalg.norm(system.A @ x + x ** 3 - system.b)
+    assert abs(r - rep.residuals[-1]) <= 1e-12 * r and r <= settings.tol_residual

@@ -53,6 +53,7 @@ class NewtonReport:
     residuals: list[float] = field(default_factory=list)
     field_residuals: list[dict[str, float]] = field(default_factory=list)
     reason: str = ""
+    on_chord: bool = False  # converged by what its last (chord) solve measured (decision 53)
 
 
 def _norms(vec: np.ndarray, dofs: dict[str, np.ndarray], kind: str) -> dict[str, float]:
@@ -210,12 +211,14 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
         floor = res_ok_before and bool(totals) and total > FLOOR_RATE * totals[-1] and small
         solves = it - 1
         recut = False
+        own_checked = False  # the iterate passed every test but the increment's, on its own cut
         if res_ok and solves >= settings.min_iterations and not layout_changed:
             if not hasattr(system, "cut_is_own") or system.cut_is_own():
                 if inc_ok or tiny or floor:
                     report.converged = True
                     report.iterations = solves
                     return report
+                own_checked = True
             else:
                 # the cut follows again (the jump of the re-cut residual is no reason to damp), at
                 # once: the increments need not pass their test on a cut that is not the state's
@@ -265,6 +268,14 @@ def solve_nonlinear(system, ctx: StepContext, settings: SolverSettings, linear: 
         if not np.all(np.isfinite(dx)):
             report.reason = "non-finite Newton increment"
             report.iterations = solves
+            return report
+        if chord and own_checked and _increment_ok(_norms(dx, system.field_dofs, "inf"), settings):
+            # what the chord step measured is within the increment tolerance: the iterate is
+            # converged, and stays as it is, with its own cut and its residual checked; the
+            # correction is not applied (it would only need another cut and residual to check,
+            # decision 53)
+            report.converged = report.on_chord = True
+            report.iterations = solves + 1
             return report
         if hasattr(system, "keep_pattern") and not chord:
             system.keep_pattern(asm.pattern)
