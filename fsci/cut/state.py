@@ -390,12 +390,8 @@ class CutState:
                                                         self.quad_degree)
             geos = np.nonzero(irregular)[0]
             self.clipped_by_geos = len(geos)
-            polys = np.zeros(0, dtype=object)
-            if len(geos):
-                cg = cand[geos]
-                boxes = shapely.box(g.xs[ij[cg, 0]], g.ys[ij[cg, 1]], g.xs[ij[cg, 0] + 1], g.ys[ij[cg, 1] + 1])
-                polys = np.array([_polygonal(p) for p in shapely.intersection(boxes, self.fluid)], dtype=object)
-                areas[geos] = shapely.area(polys)
+            self._clip_by_geos(cand[geos].tolist())
+            areas[geos] = [self._polys[c].area for c in cand[geos].tolist()]
             rel = areas / area_cell[cand]
             full = rel >= 1.0 - AREA_TOL
             empty = rel <= AREA_TOL
@@ -404,9 +400,8 @@ class CutState:
             cut = ~full & ~empty
             state[cand[cut]] = CUT
             self.fluid_area[cand[cut]] = areas[cut]
-            for c, p, is_cut in zip(cand[geos].tolist(), polys, cut[geos]):
-                if is_cut:
-                    self._polys[c] = p
+            for c in cand[geos[~cut[geos]]].tolist():  # (GEOS's polygons are kept for CUT cells only)
+                del self._polys[c]
             fan = cut[q_k]
             self._fan = (cand[q_k[fan]], q_x[fan], q_w[fan])
         self.state = state
@@ -415,15 +410,24 @@ class CutState:
     def polygons(self) -> dict[int, shapely.Geometry]:
         """Fluid part of every CUT cell as a GEOS geometry (computed on first use where the cell
         was clipped without GEOS)."""
-        return {int(c): self._cut_polygon(int(c)) for c in self.cut_cells}
+        cells = self.cut_cells.tolist()
+        self._clip_by_geos([c for c in cells if c not in self._polys])
+        return {c: self._polys[c] for c in cells}
 
     def _cut_polygon(self, c: int) -> shapely.Geometry:
         if c not in self._polys:
-            g = self.grid
-            i, j = g.cell_ij[c]
-            self._polys[c] = _polygonal(shapely.intersection(shapely.box(g.xs[i], g.ys[j], g.xs[i + 1], g.ys[j + 1]),
-                                                             self.fluid))
+            self._clip_by_geos([c])
         return self._polys[c]
+
+    def _clip_by_geos(self, cells: list[int]) -> None:
+        """GEOS's clip of the fluid region by each of ``cells``, kept."""
+        if not cells:
+            return
+        g = self.grid
+        ij = g.cell_ij[cells]
+        boxes = shapely.box(g.xs[ij[:, 0]], g.ys[ij[:, 1]], g.xs[ij[:, 0] + 1], g.ys[ij[:, 1] + 1])
+        for c, p in zip(cells, shapely.intersection(boxes, self.fluid)):
+            self._polys[c] = _polygonal(p)
 
     def piece_of(self, points: np.ndarray) -> np.ndarray:
         """Label of the fluid piece containing each point (the nearest piece for a point
