@@ -25,6 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from fsci.cut.state import END_NODE0, is_moving_end
 from fsci.geometry.search import Surface, find_pieces
@@ -120,51 +121,103 @@ def _merge(base: tuple[np.ndarray, ...], contact: tuple[np.ndarray, ...] | None,
     balance (46)), and the Jacobian has the motion of the split, across which the traction can
     jump (the slip law (40) of one gap on one side, of another or none on the other)."""
     e, s0, s1, k0, l0, k1, l1, cell, fs = base
-    none = np.full(len(e), -1.0)
-    plain = np.column_stack([e, s0, s1, k0, k1, l0, l1, cell, fs, none, none]).astype(float)
     if contact is None:  # every piece as it is
-        return plain
-    by_edge: dict[int, list[int]] = {}
+        none = np.full(len(e), -1.0)
+        return np.column_stack([e, s0, s1, k0, k1, l0, l1, cell, fs, none, none]).astype(float)
     ce, ob, oe, c0, c1, cd0, cd1 = contact
+    out = np.empty((len(e) + 2 * len(ce), 11))
+    n = _merge_rows(e.astype(np.int64), s0, s1, k0.astype(np.int64), l0, k1.astype(np.int64), l1,
+                    cell.astype(np.int64), fs.astype(np.int64), ce.astype(np.int64), ob.astype(np.int64),
+                    oe.astype(np.int64), c0, c1, cd0.astype(np.int64), cd1.astype(np.int64),
+                    edge_offset.astype(np.int64), out)
+    return out[:n]
+
+
+@njit(cache=True)
+def _split_end(v, j, cand, start, c0, c1, cd0, cd1, ob, oe, edge_offset):
+    """Descriptor and coordinate of the end at split ``v`` of a sub-piece covered by contact
+    piece ``j`` (-1: none): its own opposite node's projection, else one of a neighbouring
+    contact piece (``cand``: those of the edge, in order) that ends there, else fixed."""
+    if j >= 0:
+        own, d = (c0[j], cd0[j]) if start else (c1[j], cd1[j])
+        if abs(v - own) <= 1e-14 and d >= 0:
+            return d, 0.0
+    for i in cand:
+        other, d = (c1[i], cd1[i]) if start else (c0[i], cd0[i])
+        if i != j and abs(v - other) <= 1e-14 and d >= 0:
+            return END_NODE0 + d, float(edge_offset[ob[i]] + oe[i])
+    return -1, 0.0
+
+
+@njit(cache=True)
+def _merge_rows(e, s0, s1, k0, l0, k1, l1, cell, fs, ce, ob, oe, c0, c1, cd0, cd1, edge_offset, out):
+    """The rows of :func:`_merge` into ``out`` (room for ``len(e) + 2 len(ce)``), in the order
+    of the base pieces; returns their number."""
+    n_edges = 1
+    for k in range(len(e)):
+        n_edges = max(n_edges, e[k] + 1)
     for j in range(len(ce)):
-        by_edge.setdefault(int(ce[j]), []).append(j)
-
-    def split_end(v: float, j: int, cand: list[int], start: bool) -> tuple[int, float]:
-        """Descriptor and coordinate of the end at split ``v`` of a sub-piece covered by contact
-        piece ``j`` (-1: none): its own opposite node's projection, else one of a neighbouring
-        contact piece that ends there, else fixed."""
-        if j >= 0:
-            own, d = (c0[j], cd0[j]) if start else (c1[j], cd1[j])
-            if abs(v - own) <= 1e-14 and d >= 0:
-                return int(d), 0.0
-        for i in cand:
-            other, d = (c1[i], cd1[i]) if start else (c0[i], cd0[i])
-            if i != j and abs(v - other) <= 1e-14 and d >= 0:
-                return END_NODE0 + int(d), float(edge_offset[ob[i]] + oe[i])
-        return -1, 0.0
-
-    blocks, start = [], 0  # runs of pieces without contact kept as they are, in order
-    for k in np.nonzero(np.isin(e, ce))[0].tolist():
-        blocks.append(plain[start:k])
-        start = k + 1
-        cand = by_edge[int(e[k])]
-        rows = []
-        cuts = np.unique([s0[k], s1[k]] + [v for j in cand for v in (c0[j], c1[j]) if s0[k] < v < s1[k]])
-        for lo, hi in zip(cuts[:-1], cuts[1:]):
+        n_edges = max(n_edges, ce[j] + 1)
+    ptr = np.zeros(n_edges + 1, dtype=np.int64)  # the contact pieces of each edge, in their order
+    for j in range(len(ce)):
+        ptr[ce[j] + 1] += 1
+    for i in range(n_edges):
+        ptr[i + 1] += ptr[i]
+    fill = ptr[:-1].copy()
+    idx = np.empty(len(ce), dtype=np.int64)
+    for j in range(len(ce)):
+        idx[fill[ce[j]]] = j
+        fill[ce[j]] += 1
+    cuts = np.empty(2 * len(ce) + 2)
+    n = 0
+    for k in range(len(e)):
+        cand = idx[ptr[e[k]]:ptr[e[k] + 1]]
+        if len(cand) == 0:  # as it is
+            out[n, 0], out[n, 1], out[n, 2], out[n, 3], out[n, 4] = e[k], s0[k], s1[k], k0[k], k1[k]
+            out[n, 5], out[n, 6], out[n, 7], out[n, 8], out[n, 9], out[n, 10] = l0[k], l1[k], cell[k], fs[k], -1.0, -1.0
+            n += 1
+            continue
+        m = 0
+        cuts[m] = s0[k]
+        cuts[m + 1] = s1[k]
+        m += 2
+        for j in cand:
+            for v in (c0[j], c1[j]):
+                if s0[k] < v < s1[k]:
+                    cuts[m] = v
+                    m += 1
+        srt = np.sort(cuts[:m])
+        prev = srt[0]
+        for q in range(1, m):
+            hi = srt[q]
+            if hi == prev:  # (the same split twice)
+                continue
+            lo = prev
+            prev = hi
             if hi - lo <= 1e-13:
                 continue
             mid = 0.5 * (lo + hi)
-            hit = [j for j in cand if c0[j] <= mid <= c1[j]]
-            j = hit[0] if hit else -1
+            j = -1
+            for i in cand:
+                if c0[i] <= mid <= c1[i]:
+                    j = i
+                    break
             # an end is the base piece's end (fixed, on a grid line or another body's edge), or
             # where an opposite node projects (Remark 9, moving with the unknowns)
-            dl, cl = (k0[k], l0[k]) if lo == s0[k] else split_end(lo, j, cand, True)
-            dh, ch = (k1[k], l1[k]) if hi == s1[k] else split_end(hi, j, cand, False)
-            rows.append((e[k], lo, hi, dl, dh, cl, ch, cell[k], fs[k], ob[j] if j >= 0 else -1,
-                         oe[j] if j >= 0 else -1))
-        blocks.append(np.array(rows, dtype=float).reshape(-1, 11))
-    blocks.append(plain[start:])
-    return np.vstack(blocks)
+            if lo == s0[k]:
+                dl, cl = k0[k], l0[k]
+            else:
+                dl, cl = _split_end(lo, j, cand, True, c0, c1, cd0, cd1, ob, oe, edge_offset)
+            if hi == s1[k]:
+                dh, ch = k1[k], l1[k]
+            else:
+                dh, ch = _split_end(hi, j, cand, False, c0, c1, cd0, cd1, ob, oe, edge_offset)
+            out[n, 0], out[n, 1], out[n, 2], out[n, 3], out[n, 4] = e[k], lo, hi, dl, dh
+            out[n, 5], out[n, 6], out[n, 7], out[n, 8] = cl, ch, cell[k], fs[k]
+            out[n, 9] = ob[j] if j >= 0 else -1
+            out[n, 10] = oe[j] if j >= 0 else -1
+            n += 1
+    return n
 
 
 def _extension(x: np.ndarray, edges: np.ndarray, rows: np.ndarray, scale: float) -> np.ndarray:
