@@ -33,6 +33,7 @@ NODE_TOL = 1e-12  # a crossing this close to a grid node (relative to the cell) 
 
 @njit(cache=True)
 def _mark(i, j, nx, ny, cand_of, irregular):
+    """Leave cell (i, j) to GEOS if it is a candidate."""
     if 0 <= i < nx and 0 <= j < ny:
         k = cand_of[j * nx + i]
         if k >= 0:
@@ -232,7 +233,7 @@ def _perimeter_pieces(ptr, ev_s, ev_kind, ev_p, cand_cells, xs, ys, nx, one_chai
         cy[0], cy[1], cy[2], cy[3] = ys[j], ys[j], ys[j + 1], ys[j + 1]
         for a in range(m):
             ea = e0 + a
-            if ev_kind[ea] != -1:
+            if ev_kind[ea] != EXIT:
                 continue
             eb = e0 + (a + 1) % m
             s0, s1 = ev_s[ea], ev_s[eb]

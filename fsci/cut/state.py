@@ -415,6 +415,7 @@ class CutState:
         return {c: self._polys[c] for c in cells}
 
     def _cut_polygon(self, c: int) -> shapely.Geometry:
+        """Fluid part of CUT cell ``c`` as a GEOS geometry."""
         if c not in self._polys:
             self._clip_by_geos([c])
         return self._polys[c]
