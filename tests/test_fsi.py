@@ -262,14 +262,17 @@ def test_stamp_falling_mass_balance_and_interface_flux_rate(tmp_path):
 def test_sinking_disk_smooth_traction(tmp_path):
     """The disk sinks; the vertical fluid force varies smoothly although cells change state
     every few steps (largest second difference 1.3 % of the force, asserted 3.8 %); volume
-    and traction forms agree."""
+    and traction forms agree to the solver's tolerance: they differ by the residual left at
+    the disk's unknowns, which Newton brings below ``tol_residual`` = 1e-8 (measured 6.1e-11
+    since a solve may end at the iterate its chord step measured, decision 53; 1e-13 before,
+    when that iterate was corrected once more)."""
     out = tmp_path / "sink"
     assert main(["run", "sinking-disk", "--set", "n=16", "--set", "time.dt=0.02", "--set", "time.t_end=0.4",
                  "--out", str(out)]) == 0
     r = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
     assert r["uy_center"][-1] < -0.05
     F = r["force_y"]
-    assert np.allclose(F, r["force_y_traction"], rtol=1e-10, atol=1e-12)  # solver tolerance
+    assert np.allclose(F, r["force_y_traction"], rtol=0.0, atol=1e-8)  # solver tolerance
     # smoothness: second differences are small compared with the force (no jumps from cut changes)
     d2 = np.abs(np.diff(F[2:], 2))
     assert d2.max() < 0.038 * np.abs(F).max(), d2.max()
