@@ -58,6 +58,17 @@ def _side_param(px, py, x0, x1, y0, y1):
 
 
 @njit(cache=True)
+def _point_at(kind, line, t, ax, ay, bx, by, xs, ys):
+    """The point at parameter t of edge a -> b: on grid line ``line`` exactly for a crossing
+    (``kind`` 0: x = xs[line], 1: y = ys[line]), else the edge's end (t = 0 or 1)."""
+    if kind == 0:
+        return xs[line], ay + t * (by - ay)
+    if kind == 1:
+        return ax + t * (bx - ax), ys[line]
+    return (ax, ay) if t == 0.0 else (bx, by)
+
+
+@njit(cache=True)
 def _ring_pieces(xy, rstart, forward, xs, ys, cand_of, irregular,
                  seg_k, seg_p, seg_q, ev_k, ev_s, ev_kind, ev_p, count):
     """Split the rings' edges (traversed fluid on the left) at the grid lines: the pieces in
@@ -137,39 +148,25 @@ def _ring_pieces(xy, rstart, forward, xs, ys, cand_of, irregular,
                 crossed = True
             # crossings at a grid node, or within round-off of one: the cells around the node
             for m in range(1, n - 1):
-                if kind_all[m] == 0:
-                    px, py = xs[line_all[m]], ay + t_all[m] * dy
-                    jj = np.searchsorted(ys, py)
-                    for j in range(max(jj - 1, 0), min(jj + 1, len(ys))):
-                        if abs(py - ys[j]) <= NODE_TOL * (ys[min(j + 1, ny)] - ys[max(j - 1, 0)]):
-                            for ci in range(line_all[m] - 1, line_all[m] + 1):
-                                for cj in range(j - 1, j + 1):
-                                    _mark(ci, cj, nx, ny, cand_of, irregular)
-                else:
-                    px, py = ax + t_all[m] * dx, ys[line_all[m]]
-                    ii = np.searchsorted(xs, px)
-                    for i in range(max(ii - 1, 0), min(ii + 1, len(xs))):
-                        if abs(px - xs[i]) <= NODE_TOL * (xs[min(i + 1, nx)] - xs[max(i - 1, 0)]):
-                            for ci in range(i - 1, i + 1):
-                                for cj in range(line_all[m] - 1, line_all[m] + 1):
-                                    _mark(ci, cj, nx, ny, cand_of, irregular)
+                px, py = _point_at(kind_all[m], line_all[m], t_all[m], ax, ay, bx, by, xs, ys)
+                lines = ys if kind_all[m] == 0 else xs  # the lines along the crossed one
+                v = py if kind_all[m] == 0 else px
+                jj = np.searchsorted(lines, v)
+                for j in range(max(jj - 1, 0), min(jj + 1, len(lines))):
+                    if abs(v - lines[j]) <= NODE_TOL * (lines[min(j + 1, len(lines) - 1)] - lines[max(j - 1, 0)]):
+                        for a in range(line_all[m] - 1, line_all[m] + 1):
+                            for b in range(j - 1, j + 1):
+                                if kind_all[m] == 0:
+                                    _mark(a, b, nx, ny, cand_of, irregular)
+                                else:
+                                    _mark(b, a, nx, ny, cand_of, irregular)
             # the pieces between consecutive crossings, each in one cell
             for m in range(n - 1):
                 t0, t1 = t_all[m], t_all[m + 1]
                 if not t1 > t0:
                     continue
-                if kind_all[m] == 0:
-                    p0x, p0y = xs[line_all[m]], ay + t0 * dy
-                elif kind_all[m] == 1:
-                    p0x, p0y = ax + t0 * dx, ys[line_all[m]]
-                else:
-                    p0x, p0y = ax, ay
-                if kind_all[m + 1] == 0:
-                    p1x, p1y = xs[line_all[m + 1]], ay + t1 * dy
-                elif kind_all[m + 1] == 1:
-                    p1x, p1y = ax + t1 * dx, ys[line_all[m + 1]]
-                else:
-                    p1x, p1y = bx, by
+                p0x, p0y = _point_at(kind_all[m], line_all[m], t0, ax, ay, bx, by, xs, ys)
+                p1x, p1y = _point_at(kind_all[m + 1], line_all[m + 1], t1, ax, ay, bx, by, xs, ys)
                 tm = 0.5 * (t0 + t1)
                 ci = min(max(np.searchsorted(xs, ax + tm * dx, side="right") - 1, 0), nx - 1)
                 cj = min(max(np.searchsorted(ys, ay + tm * dy, side="right") - 1, 0), ny - 1)
