@@ -51,6 +51,7 @@ class System:
         self.extra_terms: list = []  # the coupling term (FSI, contact, FSCI)
         self.interface_edges = [self._interface_edges(s) for s in self.solids]
         self._loops = [s.mesh.boundary_loops() for s in self.solids]
+        self._outlines: list[Outline | None] = [None] * len(self.solids)  # the last of each body (outlines)
         self.cut: CutState | None = None
         self.layout_changes = 0
         self.hold_swings = False  # hold contact that swings in this attempt (decision 38)
@@ -87,16 +88,20 @@ class System:
         return e[keep]
 
     def outlines(self) -> list[Outline]:
-        """Current outlines of all bodies (validated)."""
+        """Current outlines of all bodies (validated). A body whose nodes have not moved since
+        its last outline (a fixed slab, a body between the iterates of a frozen one) keeps it."""
         out = []
         box = self.fluid.grid.box
         tol = 1e-10 * max(1.0, max(abs(v) for v in box))
         for b, s in enumerate(self.solids):
             x = s.X + s.U
-            o = Outline(b, s.name, x, self.interface_edges[b], body_polygon(x, self._loops[b], s.name, s.body.dry_cavities),
-                        s.mesh.boundary.edges)
-            if not s.body.extends_outside:
-                check_in_box(o, box, tol)
+            o = self._outlines[b]
+            if o is None or not np.array_equal(o.x, x):
+                o = Outline(b, s.name, x, self.interface_edges[b],
+                            body_polygon(x, self._loops[b], s.name, s.body.dry_cavities), s.mesh.boundary.edges)
+                if not s.body.extends_outside:
+                    check_in_box(o, box, tol)
+                self._outlines[b] = o
             out.append(o)
         return out
 

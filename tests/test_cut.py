@@ -215,3 +215,32 @@ def test_the_physical_part_of_each_box_side(x0, x1, y0):
         want = shapely.length(shapely.intersection(shapely.linestrings(X[edges]), cs.fluid))
         assert np.allclose(got, want, rtol=0.0, atol=1e-15), side
         assert np.all((s0 >= 0.0) & (s1 <= 1.0) & (s1 - s0 > 1e-14)) and np.array_equal(vn, GRID.side_edges(side)[k])
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_points_near_segments_match_geos(seed):
+    """The fluid region's vertices on interface edges (``_near_pairs``): the same pairs as
+    GEOS's ``dwithin`` query, for points on, beside and off random segments of all slopes
+    (vertical and horizontal ones included) and at their ends."""
+    from fsci.cut.state import _near_pairs
+
+    rng = np.random.default_rng(seed)
+    a = rng.uniform(0.0, 1.0, (60, 2))
+    c = a + rng.uniform(-0.2, 0.2, (60, 2))
+    c[:5, 0] = a[:5, 0]  # vertical
+    c[5:10, 1] = a[5:10, 1]  # horizontal
+    tol = 1e-9
+    t = rng.uniform(0.0, 1.0, 60)
+    d = c - a
+    n = np.column_stack([-d[:, 1], d[:, 0]]) / np.linalg.norm(d, axis=1)[:, None]
+    p = np.vstack([a + t[:, None] * d,                      # on the segments
+                   a + t[:, None] * d + 0.5 * tol * n,      # within tol beside them
+                   a + t[:, None] * d + 2.0 * tol * n,      # just beyond tol
+                   a, c - 0.5 * tol * d / np.linalg.norm(d, axis=1)[:, None],  # at the ends, past one
+                   rng.uniform(0.0, 1.0, (200, 2))])        # anywhere
+    i_pt, i_seg = _near_pairs(p, a, c, tol)
+    want_pt, want_seg = shapely.STRtree(shapely.linestrings(np.stack([a, c], axis=1))).query(
+        shapely.points(p), predicate="dwithin", distance=tol)
+    got = set(zip(i_pt.tolist(), i_seg.tolist()))
+    assert got == set(zip(want_pt.tolist(), want_seg.tolist()))
+    assert len(got) >= 180 and len(got) == len(i_pt)  # the on and within-tol points found, no pair twice

@@ -44,7 +44,7 @@ from numba import njit
 from fsci.cut.clip import clip_cells
 from fsci.fem.quadrature import gauss_quad, triangle_rule
 from fsci.geometry.outlines import Outline
-from fsci.mesh.grid import Grid
+from fsci.mesh.grid import SIDES, Grid
 
 FLUID, CUT, SOLID = 0, 1, 2
 # kinds of interface-piece ends: fixed parameter, or on a grid line x = const / y = const (the end
@@ -197,6 +197,67 @@ def _grid_crossings(a, b, xs, ys, out_edge, out_s, out_kind, out_line, count):
                         out_line[n] = lines[i]
                     n += 1
     count[0] = n
+
+
+@njit(cache=True)
+def _points_near_segments(p, a, c, tol, out_point, out_seg, count):
+    """Pairs (point ``i``, segment ``j``) with the distance from ``p[i]`` to the segment
+    ``a[j] c[j]`` at most ``tol``, by point and then segment; ``count[0]`` their number (the
+    first ``len(out_point)`` are stored). The segments are searched by the left end of their
+    bounds (sorted), within the widest segment's width of the point."""
+    m = a.shape[0]
+    x_lo = np.minimum(a[:, 0], c[:, 0])
+    order = np.argsort(x_lo)
+    x_sorted = x_lo[order]
+    width = 0.0
+    for j in range(m):
+        width = max(width, abs(c[j, 0] - a[j, 0]))
+    found = np.empty(m, dtype=np.int64)
+    n = 0
+    for i in range(p.shape[0]):
+        px, py = p[i, 0], p[i, 1]
+        k0 = np.searchsorted(x_sorted, px - width - tol, side="left")
+        k1 = np.searchsorted(x_sorted, px + tol, side="right")
+        nf = 0
+        for k in range(k0, k1):
+            j = order[k]
+            if px > max(a[j, 0], c[j, 0]) + tol or py < min(a[j, 1], c[j, 1]) - tol \
+                    or py > max(a[j, 1], c[j, 1]) + tol:
+                continue
+            dx, dy = c[j, 0] - a[j, 0], c[j, 1] - a[j, 1]
+            wx, wy = px - a[j, 0], py - a[j, 1]
+            L2 = dx * dx + dy * dy
+            r = (wx * dx + wy * dy) / L2 if L2 > 0.0 else 0.0
+            if r <= 0.0:
+                d2 = wx * wx + wy * wy
+            elif r >= 1.0:
+                d2 = (px - c[j, 0]) ** 2 + (py - c[j, 1]) ** 2
+            else:
+                cr = wx * dy - wy * dx
+                d2 = cr * cr / L2
+            if d2 <= tol * tol:
+                found[nf] = j
+                nf += 1
+        found[:nf].sort()
+        for q in range(nf):
+            if n < out_point.shape[0]:
+                out_point[n] = i
+                out_seg[n] = found[q]
+            n += 1
+    count[0] = n
+
+
+def _near_pairs(p: np.ndarray, a: np.ndarray, c: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """Point and segment indices of :func:`_points_near_segments` as two arrays."""
+    cnt = np.zeros(1, dtype=np.int64)
+    cap = 4 * len(p) + 16
+    for _ in range(2):  # second pass only if the first buffer was too small
+        i_pt, i_seg = np.empty(cap, dtype=np.int64), np.empty(cap, dtype=np.int64)
+        _points_near_segments(p, a, c, tol, i_pt, i_seg, cnt)
+        if cnt[0] <= cap:
+            break
+        cap = int(cnt[0])
+    return i_pt[:cnt[0]], i_seg[:cnt[0]]
 
 
 def _segment_events(A0, A1, B0, B1, tol=1e-12):
@@ -515,7 +576,6 @@ class CutState:
         c_if = np.vstack([o.x[o.edges[:, 1]] for o in self.outlines]) if nb else np.zeros((0, 2))
         off = np.concatenate([[0], np.cumsum([len(o.edges) for o in self.outlines])]).astype(np.int64)
         body_if = np.repeat(np.arange(nb), np.diff(off))
-        lines_if = shapely.linestrings(np.stack([a_if, c_if], axis=1)) if len(a_if) else np.zeros(0, dtype=object)
         # crossings with other bodies' outlines (contact overlaps, touching bodies): one tree, one query
         cross_body = np.zeros(0, dtype=np.int64)
         cross_edge = np.zeros(0, dtype=np.int64)
@@ -530,7 +590,7 @@ class CutState:
             body_all = np.repeat(np.arange(nb), [len(o.all_edges) for o in self.outlines])
             tree_all = shapely.STRtree(shapely.linestrings(np.stack([p0, p1], axis=1)))
             others = (p0, p1, body_all, tree_all)
-            i_mine, i_other = tree_all.query(lines_if)
+            i_mine, i_other = tree_all.query(shapely.linestrings(np.stack([a_if, c_if], axis=1)))
             other = body_if[i_mine] != body_all[i_other]
             i_mine, i_other = i_mine[other], i_other[other]
             if len(i_mine):
@@ -549,8 +609,7 @@ class CutState:
         on_other = np.zeros(0)
         if not self.fluid.is_empty and len(a_if):
             fluid_pts = shapely.get_coordinates(self.fluid)
-            i_pt, i_mine = shapely.STRtree(lines_if).query(shapely.points(fluid_pts), predicate="dwithin",
-                                                           distance=1e-9 * hmin)
+            i_pt, i_mine = _near_pairs(fluid_pts, a_if, c_if, 1e-9 * hmin)
             if len(i_pt):
                 d = c_if[i_mine] - a_if[i_mine]
                 sp = np.einsum("ij,ij->i", fluid_pts[i_pt] - a_if[i_mine], d) / np.einsum("ij,ij->i", d, d)
@@ -626,6 +685,7 @@ class CutState:
             nrm[m] = o.normals()[edge[m]]
         delta = 1e-8 * hmin
         probe = mid + delta * nrm
+        x0, x1, y0, y1 = g.box
         if self.fluid.is_empty:
             fs = np.zeros(len(body), bool)
         else:
@@ -633,9 +693,12 @@ class CutState:
             # recognised by the piece lying on the fluid region up to round-off
             fs = shapely.contains_xy(self.fluid, probe[:, 0], probe[:, 1])
             scale = 1.0 + float(np.max(np.abs(mid))) if len(mid) else 1.0
-            near = ~fs
+            reach = 8 * np.finfo(float).eps * scale
+            # (only pieces within reach of the box can be within reach of the fluid in it)
+            near = ~fs & (mid[:, 0] >= x0 - reach) & (mid[:, 0] <= x1 + reach) & (mid[:, 1] >= y0 - reach) \
+                & (mid[:, 1] <= y1 + reach)
             if near.any():  # (dwithin: the prepared fluid region's distance test, 10x a distance)
-                fs[near] = shapely.dwithin(self.fluid, shapely.points(mid[near]), 8 * np.finfo(float).eps * scale)
+                fs[near] = shapely.dwithin(self.fluid, shapely.points(mid[near]), reach)
         cell = g.locate(np.where(fs[:, None], probe, mid))
         # an FS piece must sit in a cell with fluid; fix round-off cases on grid lines
         bad = fs & (self.state[cell] == SOLID)
@@ -647,7 +710,6 @@ class CutState:
             else:  # a film below the area tolerance: not fluid (keeps quadrature and interface consistent)
                 fs[k] = False
         # faces into the box: not outside it, nor lying on a box side with the box behind it
-        x0, x1, y0, y1 = g.box
         inside = (probe[:, 0] > x0) & (probe[:, 0] < x1) & (probe[:, 1] > y0) & (probe[:, 1] < y1)
         cell = cell.astype(np.int64)
         part = cell.copy()
@@ -1088,8 +1150,7 @@ class CutState:
         k, s0, s1 = np.concatenate(piece_e), np.concatenate(piece_s0), np.concatenate(piece_s1)
         sm = 0.5 * (s0 + s1)
         mid = (1.0 - sm)[:, None] * X[edges[k, 0]] + sm[:, None] * X[edges[k, 1]]
-        i = {"bottom": (k, 0), "top": (k, g.ny - 1), "left": (0, k), "right": (g.nx - 1, k)}[side]
-        cells = (np.broadcast_to(i[1], k.shape) * g.nx + np.broadcast_to(i[0], k.shape)).astype(np.int64)
+        cells = {"bottom": k, "top": (g.ny - 1) * g.nx + k, "left": k * g.nx, "right": k * g.nx + g.nx - 1}[side]
         part = cells + g.n_cells * self.local_part(cells, mid)
         out = (k, s0, s1, self.vnodes(edges[k], part[:, None]))
         cache[side] = out
@@ -1099,13 +1160,16 @@ class CutState:
         """Whether nothing but fluid reaches box side ``side``: the bounds of the bodies, closed
         films, held-dry regions and dropped islands stay strictly off its line (then no GEOS
         intersection is needed to find its PHYSICAL part)."""
-        dry = shapely.bounds(np.array(self._dry, dtype=object))  # (x0, y0, x1, y1) per part, NaN if empty
-        if np.isnan(dry).all():
-            return True
-        x0, x1, y0, y1 = self.grid.box
-        d0, e0 = np.nanmin(dry[:, :2], axis=0)
-        d1, e1 = np.nanmax(dry[:, 2:], axis=0)
-        return {"left": d0 > x0, "right": d1 < x1, "bottom": e0 > y0, "top": e1 < y1}[side]
+        if "_fluid_sides" not in self.__dict__:
+            dry = shapely.bounds(np.array(self._dry, dtype=object))  # (x0, y0, x1, y1) per part, NaN if empty
+            if np.isnan(dry).all():
+                self._fluid_sides = dict.fromkeys(SIDES, True)
+            else:
+                x0, x1, y0, y1 = self.grid.box
+                d0, e0 = np.nanmin(dry[:, :2], axis=0)
+                d1, e1 = np.nanmax(dry[:, 2:], axis=0)
+                self._fluid_sides = {"left": d0 > x0, "right": d1 < x1, "bottom": e0 > y0, "top": e1 < y1}
+        return self._fluid_sides[side]
 
     @property
     def cut_cells(self) -> np.ndarray:

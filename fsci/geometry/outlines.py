@@ -46,10 +46,14 @@ def body_polygon(x: np.ndarray, loops: list[np.ndarray], name: str, dry_cavities
     shells, holes = [], []
     for loop in loops:
         p = x[loop]
-        area = 0.5 * np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1])
+        # twice the signed area (shoelace): counter-clockwise loops are shells
+        area = p[:-1, 0] @ p[1:, 1] - p[1:, 0] @ p[:-1, 1] + p[-1, 0] * p[0, 1] - p[0, 0] * p[-1, 1]
         (shells if area > 0 else holes).append(p)
     polys = []
     for s in shells:
+        if not holes:
+            polys.append(shapely.Polygon(s))
+            continue
         ring = shapely.Polygon(s)
         mine = [h for h in holes if ring.contains(shapely.Point(h[0])) or ring.covers(shapely.Point(h[0]))]
         polys.append(shapely.Polygon(s, mine))

@@ -107,9 +107,20 @@ class Grid:
         raise InputError("boundary", side, "one of " + ", ".join(SIDES))
 
     def side_edges(self, side: str) -> np.ndarray:
-        """Boundary edges of a side ``(k, 2)`` (node ids, increasing coordinate)."""
-        nd = self.side_nodes(side)
-        return np.column_stack([nd[:-1], nd[1:]])
+        """Boundary edges of a side ``(k, 2)`` (node ids, increasing coordinate; read-only)."""
+        if side not in self._side_edges:
+            self.side_nodes(side)  # raises, naming the sides there are
+        return self._side_edges[side]
+
+    @cached_property
+    def _side_edges(self) -> dict[str, np.ndarray]:
+        """:meth:`side_edges` of every side, made once (they are asked for at every step)."""
+        out = {}
+        for side in SIDES:
+            nd = self.side_nodes(side)
+            out[side] = np.column_stack([nd[:-1], nd[1:]])
+            out[side].flags.writeable = False
+        return out
 
     def side_normal(self, side: str) -> np.ndarray:
         return {"left": np.array([-1.0, 0.0]), "right": np.array([1.0, 0.0]),
