@@ -192,9 +192,9 @@ class SolidField:
     # ----------------------------------------------------------------- assembly
     def quadrature_points(self) -> np.ndarray:
         """Reference coordinates of all cell quadrature points, ``(n_cells * nq, 2)``."""
-        from fsci.fem.q1 import q1_eval
+        from fsci.fem.q1 import q1_values
 
-        N, _ = q1_eval(self.qxi)
+        N = q1_values(self.qxi)
         return np.einsum("qa,ead->eqd", N, self.X[self.mesh.cells]).reshape(-1, 2)
 
     def _body_force(self, ctx: StepContext) -> np.ndarray:
@@ -397,11 +397,11 @@ class FluidField:
 
     def evaluate(self, points: np.ndarray, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Velocity ``(k, 2)`` and pressure at points inside given background cells."""
-        from fsci.fem.q1 import q1_eval
+        from fsci.fem.q1 import q1_values
 
         g = self.grid
         x0 = np.column_stack([g.xs[g.cell_ij[cells, 0]], g.ys[g.cell_ij[cells, 1]]])
-        N, _ = q1_eval(2.0 * (points - x0) / g.cell_size[cells] - 1.0)
+        N = q1_values(2.0 * (points - x0) / g.cell_size[cells] - 1.0)
         nodes = self.cut.conn_at(cells, points) if self.cut is not None else g.cells[cells]
         return np.einsum("ka,kad->kd", N, self.V[nodes]), np.einsum("ka,ka->k", N, self.P[nodes])
 

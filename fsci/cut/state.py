@@ -1130,11 +1130,7 @@ class CutState:
         if not self.fluid.is_empty and self._side_is_fluid(side):
             ranges.append((float(a[d]), float(b[d])))
         elif not self.fluid.is_empty:
-            inter = shapely.intersection(shapely.LineString([a, b]), self.fluid)
-            for part in shapely.get_parts(inter):
-                if part.geom_type == "LineString" and part.length > 0.0:
-                    c = np.asarray(part.coords)[:, d]
-                    ranges.append((float(c.min()), float(c.max())))
+            ranges = self._side_stretches()[side]
         piece_e, piece_s0, piece_s1 = [np.zeros(0, dtype=np.int64)], [np.zeros(0)], [np.zeros(0)]
         for lo, hi in ranges:
             k0 = max(int(np.searchsorted(coords, lo, side="right")) - 1, 0)
@@ -1154,6 +1150,44 @@ class CutState:
         part = cells + g.n_cells * self.local_part(cells, mid)
         out = (k, s0, s1, self.vnodes(edges[k], part[:, None]))
         cache[side] = out
+        return out
+
+    def _side_stretches(self) -> dict[str, list[tuple[float, float]]]:
+        """``(lo, hi)`` of each stretch of the box sides that is not fluid whole
+        (:meth:`_side_is_fluid`) where it bounds the fluid region, along the side's coordinate:
+        one GEOS intersection of those sides (each a line from its first node to its last) with
+        the region. Its lines are split where they change sides (at a corner), and stretches of
+        a side that touch are joined."""
+        if "_stretches" in self.__dict__:
+            return self._stretches
+        x0, x1, y0, y1 = self.grid.box
+        ends = {"left": ((x0, y0), (x0, y1)), "right": ((x1, y0), (x1, y1)),
+                "bottom": ((x0, y0), (x1, y0)), "top": ((x0, y1), (x1, y1))}
+        sides = [side for side in SIDES if not self._side_is_fluid(side)]
+        out: dict[str, list[tuple[float, float]]] = {side: [] for side in sides}
+        lines = shapely.get_parts(shapely.intersection(shapely.multilinestrings([ends[k] for k in sides]), self.fluid))
+        lines = lines[(shapely.get_type_id(lines) == 1) & (shapely.length(lines) > 0.0)]  # LineStrings
+        xy, line = shapely.get_coordinates(lines, return_index=True)
+        if len(xy):
+            p, q = xy[:-1], xy[1:]
+            mid = 0.5 * (p + q)
+            # the side of every segment: the one whose line its midpoint is nearest
+            dist = np.abs(np.column_stack([mid[:, 0] - x0, mid[:, 0] - x1, mid[:, 1] - y0, mid[:, 1] - y1]))
+            on = np.argmin(dist, axis=1)
+            on[line[1:] != line[:-1]] = -1  # not a segment: from one line to the next
+            for k, side in enumerate(SIDES):
+                if side not in out:
+                    continue
+                d = 0 if side in ("bottom", "top") else 1
+                lo, hi = np.minimum(p[:, d], q[:, d]), np.maximum(p[:, d], q[:, d])
+                seg = np.nonzero(on == k)[0]
+                ranges = sorted(zip(lo[seg].tolist(), hi[seg].tolist()))
+                for r0, r1 in ranges:  # joined where they touch
+                    if out[side] and r0 <= out[side][-1][1]:
+                        out[side][-1] = (out[side][-1][0], max(out[side][-1][1], r1))
+                    else:
+                        out[side].append((r0, r1))
+        self._stretches = out
         return out
 
     def _side_is_fluid(self, side: str) -> bool:

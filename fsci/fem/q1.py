@@ -44,10 +44,16 @@ def q1_physical_gradients(xe, dN, dNx):
     return det
 
 
+def q1_values(xi: np.ndarray) -> np.ndarray:
+    """Vectorised shape functions at reference points ``(k, 2)``: ``N (k, 4)``."""
+    r, s = xi[:, 0], xi[:, 1]
+    return 0.25 * np.column_stack([(1 - r) * (1 - s), (1 + r) * (1 - s), (1 + r) * (1 + s), (1 - r) * (1 + s)])
+
+
 def q1_eval(xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Vectorised shape functions at reference points ``(k, 2)``: ``N (k, 4)``, ``dN (k, 4, 2)``."""
     r, s = xi[:, 0], xi[:, 1]
-    N = 0.25 * np.column_stack([(1 - r) * (1 - s), (1 + r) * (1 - s), (1 + r) * (1 + s), (1 - r) * (1 + s)])
+    N = q1_values(xi)
     dN = 0.25 * np.stack(
         [
             np.column_stack([-(1 - s), -(1 - r)]),

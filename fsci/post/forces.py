@@ -55,7 +55,7 @@ def traction_loads(system, bodies: list[int], about=None) -> np.ndarray:
 def interface_flux_points(system, body: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Gauss points of Γ^FS (of one body or all) with their contributions to (44):
     ``(x (k, 2), n (k, 2), w v·n fluid (k,), w v·n solid (k,))``, n the solid's outward normal."""
-    from fsci.fem.q1 import q1_eval
+    from fsci.fem.q1 import q1_values
     from fsci.fem.quadrature import gauss_line
 
     seg = system.cut.segments
@@ -83,7 +83,7 @@ def interface_flux_points(system, body: int | None = None) -> tuple[np.ndarray, 
         cells = parts_q % g.n_cells
         pts = xq.reshape(-1, 2)
         x0 = np.column_stack([g.xs[g.cell_ij[cells, 0]], g.ys[g.cell_ij[cells, 1]]])
-        N, _ = q1_eval(2.0 * (pts - x0) / g.cell_size[cells] - 1.0)
+        N = q1_values(2.0 * (pts - x0) / g.cell_size[cells] - 1.0)
         v = np.einsum("ka,kad->kd", N, f.V[system.cut.part_conn(parts_q)]).reshape(xq.shape)
         vs = (1.0 - sq)[..., None] * vs_nodes[:, 0, None, :] + sq[..., None] * vs_nodes[:, 1, None, :]
         nq = np.repeat(n, len(gp), axis=0)

@@ -43,7 +43,7 @@ import shapely
 
 from fsci.errors import InputError
 from fsci.expressions import make_scalar
-from fsci.fem.q1 import q1_eval
+from fsci.fem.q1 import q1_eval, q1_values
 from fsci.mesh.grid import SIDES
 from fsci.problem import Problem, Quantity
 
@@ -54,7 +54,7 @@ def _fluid_interpolate(fluid, points: np.ndarray) -> tuple[np.ndarray, np.ndarra
     cells = g.locate(points)
     x0 = np.column_stack([g.xs[g.cell_ij[cells, 0]], g.ys[g.cell_ij[cells, 1]]])
     xi = 2.0 * (points - x0) / g.cell_size[cells] - 1.0
-    N, _ = q1_eval(xi)
+    N = q1_values(xi)
     nodes = fluid.cut.conn_at(cells, points) if fluid.cut is not None else g.cells[cells]
     v = np.einsum("ka,kad->kd", N, fluid.V[nodes])
     p = np.einsum("ka,ka->k", N, fluid.P[nodes])
@@ -90,7 +90,7 @@ class QuantityEvaluator:
             comp = q.params.get("component", 0)
             if comp not in (0, 1):
                 raise InputError(self._field(q, "component"), comp, "0 (x) or 1 (y)")
-            N, _ = q1_eval(xi)
+            N = q1_values(xi)
             self._prepared[q.name] = (solid, solid.mesh.cells[cell[0]], N[0], comp)
         elif q.kind in ("pressure_difference", "flow_rate", "centerline_profiles", "vortex_center"):
             if s.fluid is None:
