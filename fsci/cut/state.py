@@ -694,9 +694,10 @@ class CutState:
             fs = shapely.contains_xy(self.fluid, probe[:, 0], probe[:, 1])
             scale = 1.0 + float(np.max(np.abs(mid))) if len(mid) else 1.0
             reach = 8 * np.finfo(float).eps * scale
-            # (only pieces within reach of the box can be within reach of the fluid in it)
-            near = ~fs & (mid[:, 0] >= x0 - reach) & (mid[:, 0] <= x1 + reach) & (mid[:, 1] >= y0 - reach) \
-                & (mid[:, 1] <= y1 + reach)
+            # (only pieces within reach of the fluid region's bounds can be within reach of it)
+            f0, e0, f1, e1 = shapely.bounds(self.fluid)
+            near = ~fs & (mid[:, 0] >= f0 - reach) & (mid[:, 0] <= f1 + reach) & (mid[:, 1] >= e0 - reach) \
+                & (mid[:, 1] <= e1 + reach)
             if near.any():  # (dwithin: the prepared fluid region's distance test, 10x a distance)
                 fs[near] = shapely.dwithin(self.fluid, shapely.points(mid[near]), reach)
         cell = g.locate(np.where(fs[:, None], probe, mid))

@@ -136,7 +136,7 @@ def find_pieces(surfaces: list[Surface], own: int, radius: float, self_contact: 
     so = surfaces[own]
     A = so.x[so.edges[:, 0]]
     B = so.x[so.edges[:, 1]]
-    n_own = so.normals()
+    n_own = None  # (made once a surface is within reach)
     rows = []
     reach = (np.minimum(A, B).min(axis=0, initial=np.inf) - radius, np.maximum(A, B).max(axis=0, initial=-np.inf) + radius)
     for k, sf in enumerate(surfaces):
@@ -148,6 +148,7 @@ def find_pieces(surfaces: list[Surface], own: int, radius: float, self_contact: 
                                                 np.maximum(P, Q).max(axis=0, initial=-np.inf))):
             continue  # out of reach as a whole (the tree's query would find nothing)
         tree = shapely.STRtree(shapely.linestrings(np.stack([P, Q], axis=1)))
+        n_own = so.normals() if n_own is None else n_own
         lo = np.minimum(A, B) - radius
         hi = np.maximum(A, B) + radius
         ie, jf = tree.query(shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1]))
