@@ -367,7 +367,7 @@ class CutState:
             h = float(diag[cells].max())
             (islands if size < self.island_factor * h or self._is_trapped_film(part, h) else keep).append(part)
         # (all kept: the difference is the region already, no union to make)
-        self.fluid = fluid if len(keep) == len(parts) else shapely.union_all(keep) if keep else shapely.Polygon()
+        self.fluid = (fluid if len(keep) == len(parts) else shapely.union_all(keep)) if keep else shapely.Polygon()
         self._dry = [solid, *islands]  # all that is not fluid (its bounds: _side_is_fluid)
         # connected pieces, largest first (two pieces touching in a point are two pieces)
         self.pieces = sorted(shapely.get_parts(self.fluid), key=lambda q: -q.area) if keep else []
