@@ -64,7 +64,8 @@ class Expression:
         try:
             tree = ast.parse(text, mode="eval")
             self._check(tree.body)
-            self.uses_time = any(isinstance(n, ast.Name) and n.id == "t" for n in ast.walk(tree))
+            names = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
+            self.uses_time = "t" in names
             tree = ast.fix_missing_locations(_Floats().visit(tree))
             self._code = compile(tree, f"<{field}>", "eval")
         except SyntaxError as exc:
@@ -73,7 +74,11 @@ class Expression:
             raise InputError(field, text[:40], "an expression nested less deeply") from None
         except OverflowError:
             raise InputError(field, text, "numbers within the floating-point range") from None
-        self(0.0, 0.0, 0.0)  # a failing constant part is an input error now, not during the run
+        self._constant: float | None = None
+        value = self(0.0, 0.0, 0.0)  # a failing constant part is an input error now, not during the run
+        if not names & set(VARIABLES):
+            # no x, y or t: the value is made once (boundary conditions are asked for at every step)
+            self._constant = float(value)
 
     def _check(self, node: ast.AST) -> None:
         if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and not isinstance(node.value, bool):
@@ -99,6 +104,8 @@ class Expression:
                          + ", ".join(sorted(FUNCTIONS)) + " are allowed")
 
     def __call__(self, x: Any = 0.0, y: Any = 0.0, t: float = 0.0) -> np.ndarray:
+        if self._constant is not None:
+            return np.full(np.broadcast(np.asarray(x), np.asarray(y)).shape, self._constant)
         env: dict[str, Any] = dict(FUNCTIONS)
         env.update(CONSTANTS)
         env.update(self.params)

@@ -226,3 +226,19 @@ def test_expressions_are_whitelisted():
         Expression("__import__('os')")
     with pytest.raises(InputError):
         Expression("x +* 2")
+
+
+@pytest.mark.parametrize("text", ["0", "2*a + sqrt(2)", "log(0)", "-pi/a"])
+def test_an_expression_without_x_y_t_is_made_once_with_the_shape_of_its_arguments(text):
+    """A constant expression (no x, y or t; boundary values asked for at every step) gives
+    the value its evaluation gives, in the broadcast shape of x and y, for every t."""
+    e = Expression(text, {"a": 1.5})
+    # the same expression made to depend on x is evaluated every call
+    general = Expression(f"({text}) + 0*x", {"a": 1.5})
+    x = np.linspace(0.0, 1.0, 5)
+    for args in ((x, 0.0, 0.0), (0.0, x[:, None], 3.0), (x, x, -1.0), (0.0, 0.0, 2.0)):
+        got, want = e(*args), general(*args)
+        assert got.shape == want.shape == np.broadcast(np.asarray(args[0]), np.asarray(args[1])).shape
+        assert np.array_equal(got, want)
+    with pytest.raises(InputError, match="division by zero"):
+        Expression("1/(a - 1.5)", {"a": 1.5})

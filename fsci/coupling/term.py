@@ -516,7 +516,7 @@ class CouplingTerm:
             edge_slots = np.column_stack([eo, (eo + 1) % 4])
             gn = s.gnode[cells]
             keep = np.zeros_like(gn, dtype=bool)
-            np.put_along_axis(keep, edge_slots, True, axis=1)
+            keep[np.arange(len(m))[:, None], edge_slots] = True
             keep |= has_opp[m, None]  # the own stress of the contact side needs the whole element
             conn[m, :4] = np.where(keep, gn, -1)
             if transient and body.interface_velocity is None:
