@@ -244,3 +244,45 @@ def test_points_near_segments_match_geos(seed):
     got = set(zip(i_pt.tolist(), i_seg.tolist()))
     assert got == set(zip(want_pt.tolist(), want_seg.tolist()))
     assert len(got) >= 180 and len(got) == len(i_pt)  # the on and within-tol points found, no pair twice
+
+
+def _pieces_by_numpy(E, S, Kd, Ln):
+    """The pieces between events as the cut made them with numpy (lexsort, groups of
+    coincident events, the first moving end of a group, else its first grid line)."""
+    from fsci.cut.state import END_X, END_Y, is_moving_end
+
+    order = np.lexsort((S, E))
+    E, S, Kd, Ln = E[order], S[order], Kd[order].copy(), Ln[order].copy()
+    same = E[1:] == E[:-1]
+    keep = same & ((S[1:] - S[:-1]) > 1e-13)
+    group = np.concatenate([[0], np.cumsum(~(same & ~keep))])
+    first = np.full(group[-1] + 1, -1)
+    for ends in ((Kd == END_X) | (Kd == END_Y), is_moving_end(Kd)):
+        for g in np.unique(group[ends]):
+            first[g] = np.nonzero(ends & (group == g))[0][0]
+    take = first[group]
+    m = take >= 0
+    Kd[m], Ln[m] = Kd[take[m]], Ln[take[m]]
+    i = np.nonzero(keep)[0]
+    return E[i], S[i], S[i + 1], Kd[i], Ln[i], Kd[i + 1], Ln[i + 1]
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_pieces_between_events_with_coincident_and_near_events(seed):
+    """``_pieces_between_events`` (the interface pieces' split, compiled): the same pieces and
+    end kinds as the numpy construction, on events with exact ties, ties within 1e-13 and
+    every end kind, in random order."""
+    from fsci.cut.state import _pieces_between_events
+
+    rng = np.random.default_rng(seed)
+    n = 200
+    E = rng.integers(0, 6, n).astype(np.int64)
+    S = rng.choice(np.array([0.0, 0.25, 0.25 + 5e-14, 0.5, 0.5 + 2e-13, 0.75, 1.0]), n)
+    Kd = rng.choice(np.array([-1, 2, 3, 4, 5, 6]), n).astype(np.int64)
+    Ln = rng.uniform(0.0, 10.0, n)
+    got = _pieces_between_events(E, S, Kd, Ln)
+    want = _pieces_by_numpy(E, S, Kd, Ln)
+    assert len(got[0]) > 20
+    for g, w in zip(got, want):
+        assert np.array_equal(g, w)
+    assert all(len(a) == 0 for a in _pieces_between_events(E[:0], S[:0], Kd[:0], Ln[:0]))

@@ -247,6 +247,60 @@ def _points_near_segments(p, a, c, tol, out_point, out_seg, count):
     count[0] = n
 
 
+@njit(cache=True)
+def _pieces_between_events(E, S, Kd, Ln):
+    """The pieces of one body's edges between consecutive events (edge ``E``, parameter ``S``,
+    end kind ``Kd`` and its coordinate ``Ln``): events sorted by edge and parameter (stably,
+    as ``np.lexsort``), a piece between two events of one edge more than 1e-13 apart. Events
+    that coincide (a crossing and the fluid region's vertex there, as where an outline leaves
+    the box) all take the kind of the first of them that is a moving end (a crossing with
+    another body or a closed film's end), else of the first on a grid line: a fixed end there
+    left the end's motion out of the Jacobian (Newton linear at a rate of 1e-3 on the stamp,
+    whose outline crosses the box's top). Returns the pieces' edge, ``s0``, ``s1`` and the kind
+    and coordinate of both ends."""
+    n = E.shape[0]
+    o1 = np.argsort(S, kind="mergesort")
+    order = o1[np.argsort(E[o1], kind="mergesort")]
+    E, S, Kd, Ln = E[order], S[order], Kd[order], Ln[order]
+    group = np.zeros(n, dtype=np.int64)
+    keep = np.zeros(max(n - 1, 0), dtype=np.bool_)
+    g = 0
+    for i in range(n - 1):
+        same = E[i + 1] == E[i]
+        keep[i] = same and S[i + 1] - S[i] > 1e-13
+        if keep[i] or not same:
+            g += 1
+        group[i + 1] = g
+    first_line = np.full(g + 1, -1, dtype=np.int64)
+    first_moving = np.full(g + 1, -1, dtype=np.int64)
+    for i in range(n - 1, -1, -1):  # the first of each kind in its group
+        if Kd[i] == END_X or Kd[i] == END_Y:
+            first_line[group[i]] = i
+        elif END_BODY <= Kd[i] <= END_FILM_IN:
+            first_moving[group[i]] = i
+    kind = Kd.copy()
+    line = Ln.copy()
+    for i in range(n):
+        t = first_moving[group[i]]
+        if t < 0:
+            t = first_line[group[i]]
+        if t >= 0:
+            kind[i] = Kd[t]
+            line[i] = Ln[t]
+    m = 0
+    for i in range(n - 1):
+        m += keep[i]
+    edge, s0, s1 = np.empty(m, dtype=np.int64), np.empty(m), np.empty(m)
+    k0, l0, k1, l1 = np.empty(m, dtype=np.int64), np.empty(m), np.empty(m, dtype=np.int64), np.empty(m)
+    j = 0
+    for i in range(n - 1):
+        if keep[i]:
+            edge[j], s0[j], s1[j] = E[i], S[i], S[i + 1]
+            k0[j], l0[j], k1[j], l1[j] = kind[i], line[i], kind[i + 1], line[i + 1]
+            j += 1
+    return edge, s0, s1, k0, l0, k1, l1
+
+
 def _near_pairs(p: np.ndarray, a: np.ndarray, c: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
     """Point and segment indices of :func:`_points_near_segments` as two arrays."""
     cnt = np.zeros(1, dtype=np.int64)
@@ -646,27 +700,10 @@ class CutState:
             ev_s.append(on_s[m])
             E = np.concatenate(ev_edge)
             S = np.concatenate(ev_s)
-            Kd = np.concatenate([np.full(2 * nE, END_FIXED), ok_[:n_grid], Kc, on_kind[m]])
-            Ln = np.concatenate([np.zeros(2 * nE), ol_[:n_grid], Lc, on_other[m]])
-            order = np.lexsort((S, E))
-            E, S, Kd, Ln = E[order], S[order], Kd[order], Ln[order]
-            same = (E[1:] == E[:-1])
-            keep = same & ((S[1:] - S[:-1]) > 1e-13)
-            # events that coincide (a crossing and the fluid region's vertex there, as where an
-            # outline leaves the box): all pieces meeting at the point end at the crossing with
-            # another body or a closed film's end, else at the grid line (a fixed end there
-            # left the end's motion out of the Jacobian: Newton linear at a rate of 1e-3 on the
-            # stamp, whose outline crosses the box's top)
-            group = np.concatenate([[0], np.cumsum(~(same & ~keep))])
-            first = np.full(group[-1] + 1, -1)
-            for ends in ((Kd == END_X) | (Kd == END_Y), is_moving_end(Kd)):  # the later kind wins
-                at = np.nonzero(ends)[0][::-1]
-                first[group[at]] = at
-            take = first[group]
-            m = take >= 0
-            Kd[m], Ln[m] = Kd[take[m]], Ln[take[m]]
-            i0 = np.nonzero(keep)[0]
-            rows.append((np.full(len(i0), b), E[i0], S[i0], S[i0 + 1], Kd[i0], Ln[i0], Kd[i0 + 1], Ln[i0 + 1]))
+            Kd = np.concatenate([np.full(2 * nE, END_FIXED), ok_[:n_grid], Kc, on_kind[m]]).astype(np.int64)
+            Ln = np.concatenate([np.zeros(2 * nE), ol_[:n_grid], Lc, on_other[m]]).astype(float)
+            pieces = _pieces_between_events(E.astype(np.int64), S.astype(float), Kd, Ln)
+            rows.append((np.full(len(pieces[0]), b), *pieces))
         if not rows:
             self.segments = self.mouths = _no_segments()
             return
