@@ -723,7 +723,6 @@ class CutState:
             nrm[m] = o.normals()[edge[m]]
         delta = 1e-8 * hmin
         probe = mid + delta * nrm
-        x0, x1, y0, y1 = g.box
         if self.fluid.is_empty:
             fs = np.zeros(len(body), bool)
         else:
@@ -749,6 +748,7 @@ class CutState:
             else:  # a film below the area tolerance: not fluid (keeps quadrature and interface consistent)
                 fs[k] = False
         # faces into the box: not outside it, nor lying on a box side with the box behind it
+        x0, x1, y0, y1 = g.box
         inside = (probe[:, 0] > x0) & (probe[:, 0] < x1) & (probe[:, 1] > y0) & (probe[:, 1] < y1)
         cell = cell.astype(np.int64)
         part = cell.copy()
