@@ -226,16 +226,14 @@ def _extension(x: np.ndarray, edges: np.ndarray, rows: np.ndarray, scale: float)
     Γ^FS ∩ Γ^SC with the descriptor of the Γ^FS piece's end there, or -1."""
     n = len(rows)
     ext = np.full((n, 5), -1.0)
-    if n == 0:
+    fs = rows[:, 6] > 0
+    if n == 0 or fs.all() or not fs.any():
         return ext
     e = rows[:, 0].astype(np.int64)
     a = x[edges[e, 0]]
     d = x[edges[e, 1]] - a
     p0 = a + rows[:, 1, None] * d
     p1 = a + rows[:, 2, None] * d
-    fs = rows[:, 6] > 0
-    if fs.all() or not fs.any():
-        return ext
     tol = 1e-9 * scale
     sc_pts = np.vstack([p0[~fs], p1[~fs]])
     cand = []  # (point, edge, s, cell, d, c) of FS piece ends touching an SC piece end
@@ -287,9 +285,9 @@ def build_pieces(boundaries: list[BoundaryOf], cut, radius: float, self_contact:
         keep = fs | has_opp | (ext[:, 0] >= 0)
         rows, ext = rows[keep], ext[keep]
         cols.append(np.column_stack([np.full(len(rows), b), rows, ext, np.zeros(len(rows))]))
-        if cut is not None:  # the mouths of closed films along this body's edges (bulk shape derivative only)
+        sel = cut.mouths.body == b if cut is not None else None
+        if sel is not None and sel.any():  # the mouths of closed films along this body's edges (bulk shape derivative only)
             m = cut.mouths
-            sel = m.body == b
             none = np.full(int(sel.sum()), -1.0)
             cols.append(np.column_stack([np.full(len(none), b), m.edge[sel], m.s0[sel], m.s1[sel], none, none,
                                          0.0 * none, 0.0 * none, m.part[sel], -none, none, none, none,

@@ -151,6 +151,98 @@ def _trace_constants(Xe: np.ndarray, edge: np.ndarray, D: np.ndarray, xi: np.nda
     return out
 
 
+@njit(cache=True)
+def _gather_own(m, edge, ext_edge, has_opp, has_ext, cell_of, local_of, edges_of, cells, X, gnode, Un, Vn, base,
+                law, prm, motion, c_new, coef, zidx, conn, ip, fp, Xo, prmo, W, Xe, We, vmax_s):
+    """The slots of the pieces ``m`` of one body that come from the body itself
+    (:meth:`CouplingTerm._gather_static`): its element of each piece's coupling edge (reference
+    coordinates, local unknowns; global nodes of the edge's two nodes, or of all four where the
+    piece has an opposite segment, whose stress needs the whole element), the largest solid
+    velocity component of the edge at the step's start, and the edge of an extension point.
+    ``motion`` 1: the solid velocity terms of the new time level (``W = c_new U_n + coef V_n``),
+    2: of the old level (``W = -V_n``), 0: none (a prescribed interface velocity, steady flow).
+    ``cell_of``, ``local_of``, ``edges_of``: element, local edge and nodes of every coupling edge."""
+    for j in range(len(m)):
+        k = m[j]
+        ce = edge[k]
+        c = cell_of[ce]
+        eo = local_of[ce]
+        ip[k, tk.I_EO] = eo
+        ip[k, tk.I_LAWO] = law
+        prmo[k, 0] = prm[0]
+        prmo[k, 1] = prm[1]
+        for a in range(4):
+            n = cells[c, a]
+            for i in range(2):
+                Xo[k, a, i] = X[n, i]
+                zidx[k, 2 * a + i] = base + 2 * n + i
+            conn[k, a] = gnode[n] if has_opp[k] or a == eo or a == (eo + 1) % 4 else -1
+        vmax = 0.0
+        for a in range(2):
+            n = edges_of[ce, a]
+            for i in range(2):
+                if motion == 1:
+                    W[k, a, i] = c_new * Un[n, i] + coef * Vn[n, i]
+                elif motion == 2:
+                    W[k, a, i] = -Vn[n, i]
+                vmax = max(vmax, abs(Vn[n, i]))
+        vmax_s[k] = vmax
+        if motion == 1:
+            fp[k, tk.F_CU] = c_new
+        if not has_ext[k]:
+            continue
+        ee = ext_edge[k]
+        for a in range(2):
+            n = edges_of[ee, a]
+            conn[k, 16 + a] = gnode[n]
+            for i in range(2):
+                Xe[k, a, i] = X[n, i]
+                zidx[k, tk.OFF_EDGE + 2 * a + i] = base + 2 * n + i
+                if motion == 1:
+                    We[k, a, i] = c_new * Un[n, i] + coef * Vn[n, i]
+                elif motion == 2:
+                    We[k, a, i] = -Vn[n, i]
+        if motion == 1:
+            fp[k, tk.F_CUE] = c_new
+
+
+@njit(cache=True)
+def _gather_cells(sel, parts, nodes, n_cells, gnode, fbase, xs, ys, cell_ij, cell_size, slot, off, cols, Vbar,
+                  vmax_s, transient, gam_prm, conn, zidx, fp, hk):
+    """The fluid slots of the pieces ``sel`` in the fluid parts ``parts`` (virtual nodes
+    ``nodes``; :meth:`CouplingTerm._gather_static`): global nodes from ``slot``, local unknowns
+    from ``off``, and into the columns ``cols`` of ``fp`` the cell's lower-left corner, its
+    sides and γ^F (module docstring; ``gam_prm``: γ0 μ C_T, γ0, μ C_T, ρ, γ0 ρ, 12 θ Δt, each
+    multiplied in the formula's order). In a time step |v|_∞ is the largest of the frozen
+    stabilisation velocity at the cell's nodes and ``vmax_s`` of the piece; in steady flow
+    γ^F's convective part is the kernel's (at the unknowns). ``hk`` receives h_K."""
+    for j in range(len(sel)):
+        k = sel[j]
+        c = parts[j] % n_cells
+        vmax = 0.0
+        for a in range(4):
+            n = nodes[j, a]
+            conn[k, slot + a] = gnode[n]
+            for i in range(3):
+                zidx[k, off + 3 * a + i] = fbase + 3 * n + i
+            for i in range(2):
+                vmax = max(vmax, abs(Vbar[n, i]))
+        hx = cell_size[c, 0]
+        hy = cell_size[c, 1]
+        fp[k, cols[0]] = xs[cell_ij[c, 0]]
+        fp[k, cols[1]] = ys[cell_ij[c, 1]]
+        fp[k, cols[2]] = hx
+        fp[k, cols[3]] = hy
+        h = hx * hy / max(hx, hy)
+        hk[j] = h
+        if not transient:
+            fp[k, cols[4]] = gam_prm[0] / h
+            continue
+        vmax = max(vmax, vmax_s[k])
+        gam = gam_prm[1] * (gam_prm[2] / h + gam_prm[3] * vmax / 6.0)
+        fp[k, cols[4]] = gam + gam_prm[4] * h / gam_prm[5]
+
+
 class CouplingTerm:
     """Coupling of all body boundaries (FSI, contact, FSCI) in one residual term."""
 
@@ -505,42 +597,12 @@ class CouplingTerm:
                 continue
             body = s.body
             moving |= body.interface_velocity is not None or isinstance(body.slip_length, Expression)
-            cells = s.mesh.cells[self._cell[b][pc.edge[m]]]
-            eo = self._local[b][pc.edge[m]]
-            ip[m, tk.I_EO] = eo
-            ip[m, tk.I_LAWO] = s.law
-            prmo[m] = s.prm
-            Xo[m] = s.X[cells]
-            zidx[m, :8] = (base[b] + 2 * cells[:, :, None] + two).reshape(len(m), 8)
-            e = self._edges[b][pc.edge[m]]
-            edge_slots = np.column_stack([eo, (eo + 1) % 4])
-            gn = s.gnode[cells]
-            keep = np.zeros_like(gn, dtype=bool)
-            keep[np.arange(len(m))[:, None], edge_slots] = True
-            keep |= has_opp[m, None]  # the own stress of the contact side needs the whole element
-            conn[m, :4] = np.where(keep, gn, -1)
-            if transient and body.interface_velocity is None:
-                if level == "new":
-                    fp[m, tk.F_CU] = c_new
-                    W[m] = c_new * s.Un[e] + (1.0 - ctx.theta) / ctx.theta * s.Vn[e]
-                else:
-                    W[m] = -s.Vn[e]
-            vmax_s[m] = np.max(np.abs(s.Vn[e]), axis=(1, 2))
+            motion = 0 if not transient or body.interface_velocity is not None else (1 if level == "new" else 2)
+            _gather_own(m, pc.edge, pc.ext_edge, has_opp, has_ext, self._cell[b], self._local[b], self._edges[b],
+                        s.mesh.cells, s.X, s.gnode, s.Un, s.Vn, int(base[b]), s.law, s.prm, motion, c_new,
+                        (1.0 - ctx.theta) / ctx.theta, zidx, conn, ip, fp, Xo, prmo, W, Xe, We, vmax_s)
             if body.slip_length == GAP_LAW:
                 flags[m] |= tk.SLIP_LAW
-            # extension points on this body
-            me = m[has_ext[m]]
-            if len(me):
-                ee = self._edges[b][pc.ext_edge[me]]
-                Xe[me, :2] = s.X[ee]
-                zidx[me, tk.OFF_EDGE:tk.OFF_EDGE + 4] = (base[b] + 2 * ee[:, :, None] + two).reshape(len(me), 4)
-                conn[me, 16:18] = s.gnode[ee]
-                if transient and body.interface_velocity is None:
-                    if level == "new":
-                        fp[me, tk.F_CUE] = c_new
-                        We[me] = c_new * s.Un[ee] + (1.0 - ctx.theta) / ctx.theta * s.Vn[ee]
-                    else:
-                        We[me] = -s.Vn[ee]
         # opposite bodies: the whole element of the opposite segment (its stress)
         for b, s in enumerate(system.solids):
             m = np.nonzero(has_opp & (pc.opp_body == b))[0]
@@ -565,26 +627,19 @@ class CouplingTerm:
             st = self.iset
             fp[:, tk.F_KAPPA0] = st.kappa0
             fp[:, tk.F_SLIPH] = self.slip_h
-            three = np.arange(3)
+            # γ^F's factors, multiplied in the order of its formula (module docstring)
+            gam_prm = np.array([st.gamma_n * f.mu * st.trace_constant, st.gamma_n, f.mu * st.trace_constant, f.rho,
+                                st.gamma_n * f.rho, 12.0 * ctx.theta * ctx.dt if transient else 1.0])
 
-            def cell_data(sel: np.ndarray, parts: np.ndarray, slot: int, off: int,
-                          cols: tuple[int, int, int, int]) -> tuple[np.ndarray, np.ndarray]:
-                """Fluid slots, cell geometry and γ^F of the pieces ``sel`` in fluid ``parts``."""
-                nodes = system.cut.part_conn(parts)
-                cells = parts % g.n_cells
-                conn[sel, slot:slot + 4] = f.gnode[nodes]
-                zidx[sel, off:off + 12] = (fbase + 3 * nodes[:, :, None] + three).reshape(-1, 12)
-                hx, hy = g.cell_size[cells, 0], g.cell_size[cells, 1]
-                fp[sel, cols[0]] = g.xs[g.cell_ij[cells, 0]]
-                fp[sel, cols[1]] = g.ys[g.cell_ij[cells, 1]]
-                fp[sel, cols[2]] = hx
-                fp[sel, cols[3]] = hy
-                hk = hx * hy / np.maximum(hx, hy)
-                if not transient:  # the convective part at the unknowns (traction._nitsche_gamma)
-                    return st.gamma_n * f.mu * st.trace_constant / hk, hk
-                vmax = np.maximum(np.max(np.abs(f.Vbar[nodes]), axis=(1, 2)), vmax_s[sel])
-                gam = st.gamma_n * (f.mu * st.trace_constant / hk + f.rho * vmax / 6.0)
-                return gam + st.gamma_n * f.rho * hk / (12.0 * ctx.theta * ctx.dt), hk
+            def cell_data(sel: np.ndarray, parts: np.ndarray, nodes: np.ndarray, slot: int, off: int,
+                          cols: tuple[int, int, int, int, int]) -> np.ndarray:
+                """Fluid slots, cell geometry and γ^F of the pieces ``sel`` in fluid ``parts`` (of
+                virtual nodes ``nodes``); returns h_K."""
+                hk = np.empty(len(sel))
+                _gather_cells(sel, parts, nodes, g.n_cells, f.gnode, fbase, g.xs, g.ys, g.cell_ij, g.cell_size,
+                              slot, off, np.array(cols, dtype=np.int64), f.Vbar, vmax_s, transient, gam_prm,
+                              conn, zidx, fp, hk)
+                return hk
 
             if not transient:
                 fp[:, tk.F_GAMV] = st.gamma_n * f.rho / 6.0
@@ -592,18 +647,19 @@ class CouplingTerm:
 
             sel = np.nonzero(pc.fs)[0]
             if len(sel):
-                gam, hk = cell_data(sel, pc.cell[sel], 8, tk.OFF_CELL, (tk.F_X0C, tk.F_Y0C, tk.F_HX, tk.F_HY))
-                fp[sel, tk.F_GAM] = gam
+                nodes = system.cut.part_conn(pc.cell[sel])
+                hk = cell_data(sel, pc.cell[sel], nodes, 8, tk.OFF_CELL,
+                               (tk.F_X0C, tk.F_Y0C, tk.F_HX, tk.F_HY, tk.F_GAM))
                 fp[sel, tk.F_AT] = hk / (st.gamma_t * st.trace_constant)
                 if not ctx.static:
-                    Vo[sel] = f.Vn[system.cut.part_conn(pc.cell[sel])]
+                    Vo[sel] = f.Vn[nodes]
                 if transient:  # steady flow: the unknown velocity (add_bulk_shape_derivative)
-                    Vb[sel] = f.Vbar[system.cut.part_conn(pc.cell[sel])]
+                    Vb[sel] = f.Vbar[nodes]
                 moving |= f.spec.body_force is not None
             sel = np.nonzero(has_ext)[0]
             if len(sel):
-                gam, _ = cell_data(sel, pc.ext_cell[sel], 12, tk.OFF_EXT, (tk.F_X0E, tk.F_Y0E, tk.F_HXE, tk.F_HYE))
-                fp[sel, tk.F_GAME] = gam
+                cell_data(sel, pc.ext_cell[sel], system.cut.part_conn(pc.ext_cell[sel]), 12, tk.OFF_EXT,
+                          (tk.F_X0E, tk.F_Y0E, tk.F_HXE, tk.F_HYE, tk.F_GAME))
                 fp[sel, tk.F_SE] = pc.ext_s[sel]
         out = dict(zidx=zidx, conn=conn, ip=ip, fp=fp, Xo=Xo, prmo=prmo, Xm=Xm, prmm=prmm, W=W, Xe=Xe, We=We, Vo=Vo,
                    Vb=Vb, moving_data=moving)
