@@ -284,7 +284,6 @@ class CouplingTerm:
             self.slip_h = self.iset.slip_h if self.iset.slip_h > 0 else float(g.cell_size.max())
             radius = max(radius, 1.01 * self.slip_h)  # the law (40) needs the gap up to h
         self.radius = radius
-        self.phi = [np.full(len(e), np.inf) for e in self._edges]
         self._key = None
         self._pieces: CouplingPieces | None = None
         self._ghost: tuple[object, tuple[np.ndarray, np.ndarray, np.ndarray] | None] = (None, None)
@@ -359,15 +358,25 @@ class CouplingTerm:
 
     # ----------------------------------------------------------------- geometry
     def update_penalty(self, system) -> None:
-        """Trace-inequality estimates φ of every contact element at the current shape."""
-        for k, s in enumerate(system.solids):
-            phi = np.full(len(self._edges[k]), np.inf)
-            if len(self._contact[k]) and not (s.body.rigid or s.fixed.all()):
-                x = s.X + s.U
-                m = s.body.material
-                c = self._contact[k]
-                phi[c] = trace_constants(x[s.mesh.cells[self._cell[k][c]]], self._local[k][c], m.E, m.nu)
-            self.phi[k] = phi
+        """Take the trace-inequality estimates φ of the contact elements (:meth:`penalty_scales`)
+        at the current shape. They are computed when a piece with an opposite segment first needs
+        them: most steps of a body falling through fluid have none."""
+        self._phi_shape = [s.X + s.U for s in system.solids]
+        self._phi = None
+
+    def penalty_scales(self, system) -> list[np.ndarray]:
+        """φ of every coupling edge of each body at the shape of the last :meth:`update_penalty`
+        (∞ off the contact boundary and on rigid or prescribed bodies)."""
+        if self._phi is None:
+            self._phi = []
+            for k, (s, x) in enumerate(zip(system.solids, self._phi_shape)):
+                phi = np.full(len(self._edges[k]), np.inf)
+                if len(self._contact[k]) and not (s.body.rigid or s.fixed.all()):
+                    m = s.body.material
+                    c = self._contact[k]
+                    phi[c] = trace_constants(x[s.mesh.cells[self._cell[k][c]]], self._local[k][c], m.E, m.nu)
+                self._phi.append(phi)
+        return self._phi
 
     def _geometry_key(self, system) -> tuple:
         if system.fluid is not None:
@@ -471,7 +480,7 @@ class CouplingTerm:
         f = system.fluid
         key = (self.pieces(system), ctx, level, self._held,
                *(s.Un for s in system.solids), *(s.Vn for s in system.solids),
-               *(s.gnode for s in system.solids), *self.phi,
+               *(s.gnode for s in system.solids), *self._phi_shape,
                *((f.Vbar, f.Vn, f.gnode) if f is not None else ()))
         cache = self.__dict__.setdefault("_static_cache", {})
         hit = cache.get(level)
@@ -618,8 +627,9 @@ class CouplingTerm:
         self._gather_end_edges(system, pc, base, zidx, conn, Xe)
         mo = np.nonzero(has_opp)[0]
         if len(mo):
-            phi_o = np.array([self.phi[b][e] for b, e in zip(pc.body[mo], pc.edge[mo])])
-            phi_m = np.array([self.phi[b][e] for b, e in zip(pc.opp_body[mo], pc.opp_edge[mo])])
+            phi = self.penalty_scales(system)
+            phi_o = np.array([phi[b][e] for b, e in zip(pc.body[mo], pc.edge[mo])])
+            phi_m = np.array([phi[b][e] for b, e in zip(pc.opp_body[mo], pc.opp_edge[mo])])
             fp[mo, tk.F_WOWN], fp[mo, tk.F_PEN] = self._weights(phi_o, phi_m)
         ip[:, tk.I_FLAGS] = flags
         if f is not None:
