@@ -97,6 +97,63 @@ def test_coupling_jacobian_in_every_case(variant, scheme):
     check_jacobian(system, ctx, x0, h=1e-7, label=f"FSCI {variant} {scheme}")
 
 
+def test_gathered_piece_data_are_those_of_their_elements_and_cells():
+    """The per-piece arrays of the coupling kernel, gathered by compiled loops, in the θ = 0.6
+    state with points in every case I-IV: each piece's own element (reference coordinates, its
+    displacements among the local unknowns, the global nodes of its coupling edge, or of the
+    whole element where the piece has an opposite segment), the solid velocity terms
+    ``W = U_n / (θ Δt) + (1 − θ)/θ V_n`` at the edge's nodes, the extension edge likewise, and
+    the wetted piece's fluid cell: corner, sides, nodes, unknowns and γ^F of its formula
+    ``γ0 (μ C_T / h_K + ρ |v|_∞ / 6 + ρ h_K / (12 θ Δt))``, with |v|_∞ the largest component of
+    the stabilisation velocity at the cell's nodes and of V_n at the edge's nodes (raised here
+    so that either can be the larger)."""
+    system, ctx, x0 = two_bodies_in_fluid("remark6")
+    system.scatter(x0)
+    for s in system.solids:
+        s.Vn = 30.0 * s.Vn
+    term = system.extra_terms[0]
+    d = term.gather(system, ctx)
+    pc = term.pieces(system)
+    f, g, st = system.fluid, system.fluid.grid, term.iset
+    assert pc.fs.any() and (pc.opp_body >= 0).any() and (pc.ext_edge >= 0).any()
+    fluid_z = np.column_stack([f.V, f.P])
+    c_new, c_old = 1.0 / (ctx.theta * ctx.dt), (1.0 - ctx.theta) / ctx.theta
+    solid_larger = 0
+    for k in range(len(pc.body)):
+        s = system.solids[pc.body[k]]
+        cell = term._cell[pc.body[k]][pc.edge[k]]
+        nodes, eo = s.mesh.cells[cell], term._local[pc.body[k]][pc.edge[k]]
+        edge = term._edges[pc.body[k]][pc.edge[k]]
+        on_edge = np.isin(np.arange(4), [eo, (eo + 1) % 4])
+        assert set(edge) == set(nodes[on_edge])
+        assert np.array_equal(d["Xo"][k], s.X[nodes])
+        assert np.array_equal(d["z"][k, :8], s.U[nodes].ravel())
+        whole = pc.opp_body[k] >= 0
+        assert np.array_equal(d["conn"][k, :4], np.where(on_edge | whole, s.gnode[nodes], -1))
+        np.testing.assert_allclose(d["W"][k], c_new * s.Un[edge] + c_old * s.Vn[edge], rtol=1e-14, atol=0.0)
+        if pc.ext_edge[k] >= 0:
+            ee = term._edges[pc.body[k]][pc.ext_edge[k]]
+            assert np.array_equal(d["Xe"][k, :2], s.X[ee])
+            assert np.array_equal(d["z"][k, tk.OFF_EDGE:tk.OFF_EDGE + 4], s.U[ee].ravel())
+            assert np.array_equal(d["conn"][k, 16:18], s.gnode[ee])
+            np.testing.assert_allclose(d["We"][k], c_new * s.Un[ee] + c_old * s.Vn[ee], rtol=1e-14, atol=0.0)
+        if not pc.fs[k]:
+            continue
+        fn = system.cut.part_conn(pc.cell[k:k + 1])[0]
+        c = pc.cell[k] % g.n_cells
+        assert np.array_equal(d["conn"][k, 8:12], f.gnode[fn])
+        assert np.array_equal(d["z"][k, tk.OFF_CELL:tk.OFF_CELL + 12], fluid_z[fn].ravel())
+        hx, hy = g.cell_size[c]
+        fp = d["fp"][k]
+        assert (fp[tk.F_X0C], fp[tk.F_Y0C], fp[tk.F_HX], fp[tk.F_HY]) == (g.xs[g.cell_ij[c, 0]], g.ys[g.cell_ij[c, 1]], hx, hy)
+        hk = hx * hy / max(hx, hy)
+        vmax = max(np.abs(f.Vbar[fn]).max(), np.abs(s.Vn[edge]).max())
+        solid_larger += np.abs(s.Vn[edge]).max() > np.abs(f.Vbar[fn]).max()
+        gam = st.gamma_n * (f.mu * st.trace_constant / hk + f.rho * vmax / 6.0 + f.rho * hk / (12.0 * ctx.theta * ctx.dt))
+        assert fp[tk.F_GAM] == pytest.approx(gam, rel=1e-14)
+    assert 0 < solid_larger < pc.fs.sum()
+
+
 def test_fluid_columns_by_differences_equal_the_complex_step(monkeypatch):
     """The coupling kernel takes the Jacobian columns of the fluid unknowns as real differences
     of step ``AFFINE_STEP`` with the case of every point fixed (the residual is affine in them),
