@@ -871,7 +871,7 @@ class CutState:
         f = g.faces
         both = face_cell[f[:, 0]] & face_cell[f[:, 1]]
         faces = np.ascontiguousarray(f[both])
-        fnodes = face_nodes(g.cells, faces)
+        fnodes = g.face_nodes[both]
         ghost = (self.state[faces[:, 0]] != FLUID) | (self.state[faces[:, 1]] != FLUID)
         self.active = active
         self.int_conn = g.cells[self.int_cells]
@@ -1273,15 +1273,6 @@ def _no_segments() -> Segments:
     """An empty set of interface pieces."""
     z, f = np.zeros(0, dtype=np.int64), np.zeros(0)
     return Segments(z, z, f, f, z, z, np.zeros(0, bool), z, f, z, f, np.zeros(0, bool))
-
-
-def face_nodes(cells: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Nodes of the two cells of each face ``(cl, cr, d)``, ``(k, 6)``: the four of ``cl``
-    (counter-clockwise from its lower left), then the two of ``cr`` away from the face (d = 0:
-    its lower and upper right; d = 1: its upper right and upper left)."""
-    right = cells[faces[:, 1]]
-    far = np.where((faces[:, 2] == 0)[:, None], right[:, [1, 2]], right[:, [2, 3]])
-    return np.ascontiguousarray(np.hstack([cells[faces[:, 0]], far]).astype(np.int64))
 
 
 def _polygonal(geom: shapely.Geometry) -> shapely.Geometry:

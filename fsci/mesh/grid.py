@@ -93,6 +93,19 @@ class Grid:
         h = np.column_stack([(j.ravel() - 1) * nx + i.ravel(), j.ravel() * nx + i.ravel(), np.ones(i.size, int)])
         return np.vstack([v, h]).astype(np.int64)
 
+    @cached_property
+    def face_nodes(self) -> np.ndarray:
+        """Nodes of the two cells of each face ``(cl, cr, d)`` of :attr:`faces`, ``(n_faces, 6)``:
+        the four of ``cl`` (counter-clockwise from its lower left), then the two of ``cr`` away
+        from the face (d = 0: its lower and upper right; d = 1: its upper right and upper left).
+        Read-only (a cut takes the rows of its faces)."""
+        cells, faces = self.cells, self.faces
+        right = cells[faces[:, 1]]
+        far = np.where((faces[:, 2] == 0)[:, None], right[:, [1, 2]], right[:, [2, 3]])
+        out = np.ascontiguousarray(np.hstack([cells[faces[:, 0]], far]).astype(np.int64))
+        out.flags.writeable = False
+        return out
+
     def side_nodes(self, side: str) -> np.ndarray:
         """Node ids on one side of the box (``left``, ``right``, ``bottom``, ``top``)."""
         n = self.nx + 1

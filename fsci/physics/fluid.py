@@ -349,7 +349,7 @@ def assemble_fluid_cells(items, xs, ys, nx, conn, cell_ids, qptr, qx, qw, bq, V,
 
 @njit(cache=True, inline="always")
 def _face_map(d, rmap):
-    """Positions in the six face nodes (:func:`fsci.cut.state.face_nodes`) of the right/upper
+    """Positions in the six face nodes (:attr:`fsci.mesh.grid.Grid.face_nodes`) of the right/upper
     cell's four nodes."""
     if d == 0:
         rmap[0] = 1
