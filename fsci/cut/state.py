@@ -301,6 +301,54 @@ def _pieces_between_events(E, S, Kd, Ln):
     return edge, s0, s1, k0, l0, k1, l1
 
 
+@njit(cache=True)
+def _body_pieces(a, c, normals, xs, ys, b, first, cross_body, cross_edge, cross_s, cross_kind, cross_other,
+                 on_body, on_edge, on_s, on_kind, on_other):
+    """The interface pieces of body ``b`` (interface edges ``a → c``, their outward ``normals``;
+    the body's first edge is edge ``first`` of all bodies'): its edges split at their ends
+    (fixed), at the grid lines they cross (:func:`_grid_crossings`), at the crossings with other
+    bodies (``cross_*``, of all bodies) and at the fluid region's vertices on them (``on_*``),
+    by :func:`_pieces_between_events`, in this order of events. Returns the pieces' edge,
+    ``s0``, ``s1``, the kind and coordinate of both ends, the midpoint and the edge's normal."""
+    n_edges = a.shape[0]
+    cap = 64 * n_edges + 64
+    cnt = np.zeros(1, dtype=np.int64)
+    for _ in range(2):  # second pass only if the first buffer was too small
+        oe, os_, ok_, ol_ = np.empty(cap, dtype=np.int64), np.empty(cap), np.empty(cap, dtype=np.int64), np.empty(cap)
+        _grid_crossings(a, c, xs, ys, oe, os_, ok_, ol_, cnt)
+        if cnt[0] <= cap:
+            break
+        cap = cnt[0]
+    n_grid = cnt[0]
+    n = 2 * n_edges + n_grid + np.sum(cross_body == b) + np.sum(on_body == b)
+    E, S, Kd, Ln = np.empty(n, dtype=np.int64), np.empty(n), np.empty(n, dtype=np.int64), np.empty(n)
+    for k in range(n_edges):
+        E[k], S[k], Kd[k], Ln[k] = k, 0.0, END_FIXED, 0.0
+        E[n_edges + k], S[n_edges + k], Kd[n_edges + k], Ln[n_edges + k] = k, 1.0, END_FIXED, 0.0
+    j = 2 * n_edges
+    for k in range(n_grid):
+        E[j], S[j], Kd[j], Ln[j] = oe[k], os_[k], ok_[k], ol_[k]
+        j += 1
+    for k in range(cross_body.shape[0]):
+        if cross_body[k] == b:
+            E[j], S[j], Kd[j], Ln[j] = cross_edge[k] - first, cross_s[k], cross_kind[k], cross_other[k]
+            j += 1
+    for k in range(on_body.shape[0]):
+        if on_body[k] == b:
+            E[j], S[j], Kd[j], Ln[j] = on_edge[k] - first, on_s[k], on_kind[k], on_other[k]
+            j += 1
+    edge, s0, s1, k0, l0, k1, l1 = _pieces_between_events(E, S, Kd, Ln)
+    mid = np.empty((edge.shape[0], 2))
+    nrm = np.empty((edge.shape[0], 2))
+    for k in range(edge.shape[0]):
+        e = edge[k]
+        sm = 0.5 * (s0[k] + s1[k])
+        for i in range(2):
+            mid[k, i] = a[e, i] + sm * (c[e, i] - a[e, i])
+            nrm[k, i] = normals[e, i]
+    return edge, s0, s1, k0, l0, k1, l1, mid, nrm
+
+
 def _near_pairs(p: np.ndarray, a: np.ndarray, c: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
     """Point and segment indices of :func:`_points_near_segments` as two arrays."""
     cnt = np.zeros(1, dtype=np.int64)
@@ -672,55 +720,14 @@ class CutState:
                 on_edge_i, on_s = i_mine[ok], sp[ok]
                 on_body = body_if[on_edge_i]
                 on_kind, on_other = self._film_ends(fluid_pts[i_pt[ok]], on_body, hmin, others)
-        rows = []
-        for b, o in enumerate(self.outlines):
-            a = a_if[off[b]:off[b + 1]]
-            c = c_if[off[b]:off[b + 1]]
-            nE = len(a)
-            ev_edge = [np.arange(nE), np.arange(nE)]
-            ev_s = [np.zeros(nE), np.ones(nE)]
-            cap = 64 * nE + 64
-            cnt = np.zeros(1, dtype=np.int64)
-            for _ in range(2):  # second pass only if the first buffer was too small
-                oe, os_, ok_, ol_ = (np.empty(cap, dtype=np.int64), np.empty(cap), np.empty(cap, dtype=np.int64),
-                                     np.empty(cap))
-                _grid_crossings(a, c, g.xs, g.ys, oe, os_, ok_, ol_, cnt)
-                if cnt[0] <= cap:
-                    break
-                cap = int(cnt[0])
-            n_grid = int(cnt[0])
-            ev_edge.append(oe[:n_grid])
-            ev_s.append(os_[:n_grid])
-            m = cross_body == b
-            ev_edge.append(cross_edge[m] - off[b])
-            ev_s.append(cross_s[m])
-            Kc, Lc = cross_kind[m], cross_other[m]
-            m = on_body == b
-            ev_edge.append(on_edge_i[m] - off[b])
-            ev_s.append(on_s[m])
-            E = np.concatenate(ev_edge)
-            S = np.concatenate(ev_s)
-            Kd = np.concatenate([np.full(2 * nE, END_FIXED), ok_[:n_grid], Kc, on_kind[m]]).astype(np.int64)
-            Ln = np.concatenate([np.zeros(2 * nE), ol_[:n_grid], Lc, on_other[m]]).astype(float)
-            pieces = _pieces_between_events(E.astype(np.int64), S.astype(float), Kd, Ln)
-            rows.append((np.full(len(pieces[0]), b), *pieces))
+        rows = [_body_pieces(a_if[off[b]:off[b + 1]], c_if[off[b]:off[b + 1]], o.normals(), g.xs, g.ys, b, off[b],
+                             cross_body, cross_edge, cross_s, cross_kind, cross_other,
+                             on_body, on_edge_i, on_s, on_kind, on_other) for b, o in enumerate(self.outlines)]
         if not rows:
             self.segments = self.mouths = _no_segments()
             return
-        body = np.concatenate([r[0] for r in rows]).astype(np.int64)
-        edge = np.concatenate([r[1] for r in rows]).astype(np.int64)
-        s0 = np.concatenate([r[2] for r in rows])
-        s1 = np.concatenate([r[3] for r in rows])
-        ends = [np.concatenate([r[k] for r in rows]) for k in (4, 5, 6, 7)]
-        mid = np.empty((len(body), 2))
-        nrm = np.empty((len(body), 2))
-        for b, o in enumerate(self.outlines):
-            m = body == b
-            a = o.x[o.edges[edge[m], 0]]
-            c = o.x[o.edges[edge[m], 1]]
-            sm = 0.5 * (s0[m] + s1[m])
-            mid[m] = a + sm[:, None] * (c - a)
-            nrm[m] = o.normals()[edge[m]]
+        body = np.concatenate([np.full(len(r[0]), b, dtype=np.int64) for b, r in enumerate(rows)])
+        edge, s0, s1, kind0, line0, kind1, line1, mid, nrm = (np.concatenate([r[k] for r in rows]) for k in range(9))
         delta = 1e-8 * hmin
         probe = mid + delta * nrm
         if self.fluid.is_empty:
@@ -753,8 +760,7 @@ class CutState:
         cell = cell.astype(np.int64)
         part = cell.copy()
         part[fs] += g.n_cells * self.local_part(cell[fs], probe[fs])  # the part on the wetted side
-        self.segments = Segments(body, edge, s0, s1, cell, part, fs.astype(bool), ends[0].astype(np.int64),
-                                 ends[1], ends[2].astype(np.int64), ends[3], inside)
+        self.segments = Segments(body, edge, s0, s1, cell, part, fs.astype(bool), kind0, line0, kind1, line1, inside)
         self.mouths = self._film_mouths(a_if, c_if, body_if, off, hmin)
 
     def _film_mouths(self, a_if: np.ndarray, c_if: np.ndarray, body_if: np.ndarray, off: np.ndarray,
