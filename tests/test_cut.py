@@ -286,3 +286,45 @@ def test_pieces_between_events_with_coincident_and_near_events(seed):
     for g, w in zip(got, want):
         assert np.array_equal(g, w)
     assert all(len(a) == 0 for a in _pieces_between_events(E[:0], S[:0], Kd[:0], Ln[:0]))
+
+
+def test_interface_pieces_tile_each_edge_between_grid_lines_and_crossings():
+    """The interface pieces of a disk and a tilted block that overlap it (made per body by one
+    compiled loop): on every interface edge they run from s = 0 to 1 without gap or overlap
+    (beyond the 1e-13 within which two events are one); no
+    grid line crosses a piece's interior; an end on a grid line has that line's kind (END_X,
+    END_Y) and coordinate; where the outlines cross, the pieces end with kind END_BODY on the
+    crossing."""
+    from fsci.cut.state import END_BODY, END_X, END_Y
+
+    outlines = [disk_outline(0, (0.43, 0.47), 0.23, n_edges=61),
+                rect_outline(1, 0.55, 0.2, 0.85, 0.6, angle=0.3)]
+    seg = CutState(GRID, outlines, island_factor=0.0).segments
+    crossings = shapely.intersection(outlines[0].polygon.exterior, outlines[1].polygon.exterior)
+    crossings = shapely.get_coordinates(crossings)
+    assert len(crossings) == 2
+    body_ends = 0
+    for b, o in enumerate(outlines):
+        a, c = o.x[o.edges[:, 0]], o.x[o.edges[:, 1]]
+        for e in range(len(o.edges)):
+            m = np.nonzero((seg.body == b) & (seg.edge == e))[0]
+            m = m[np.argsort(seg.s0[m])]
+            s0, s1 = seg.s0[m], seg.s1[m]
+            # (events closer than 1e-13, as a crossing and the fluid region's vertex on it, are one)
+            assert s0[0] == 0.0 and s1[-1] == 1.0 and np.all(np.abs(s0[1:] - s1[:-1]) <= 1e-13), (b, e)
+            p0 = a[e] + s0[:, None] * (c[e] - a[e])
+            p1 = a[e] + s1[:, None] * (c[e] - a[e])
+            for d, lines in ((0, GRID.xs), (1, GRID.ys)):
+                lo, hi = np.minimum(p0[:, d], p1[:, d]), np.maximum(p0[:, d], p1[:, d])
+                inside = (lines[None, :] > lo[:, None] + 1e-12) & (lines[None, :] < hi[:, None] - 1e-12)
+                assert not inside.any(), (b, e)
+            for kind, line, p in ((seg.kind0[m], seg.line0[m], p0), (seg.kind1[m], seg.line1[m], p1)):
+                for d, k_line in ((0, END_X), (1, END_Y)):
+                    on = kind == k_line
+                    assert np.allclose(p[on, d], line[on], rtol=0.0, atol=1e-12)
+                    assert np.all(np.min(np.abs((GRID.xs, GRID.ys)[d][None, :] - line[on][:, None]), axis=1) == 0.0)
+                at_body = kind == END_BODY
+                body_ends += int(at_body.sum())
+                for q in p[at_body]:
+                    assert np.min(np.linalg.norm(crossings - q, axis=1)) < 1e-12
+    assert body_ends == 8  # two crossings, each ending two pieces on each of the two bodies
