@@ -151,6 +151,18 @@ def _trace_constants(Xe: np.ndarray, edge: np.ndarray, D: np.ndarray, xi: np.nda
     return out
 
 
+@njit(cache=True, inline="always")
+def _solid_velocity_terms(nodes, Un, Vn, motion, c_new, coef, W):
+    """The solid velocity terms ``W (2, 2)`` of an edge's two ``nodes`` (see :func:`_gather_own`):
+    ``c_new U_n + coef V_n`` for ``motion`` 1, ``-V_n`` for 2, untouched for 0."""
+    for a in range(2):
+        for i in range(2):
+            if motion == 1:
+                W[a, i] = c_new * Un[nodes[a], i] + coef * Vn[nodes[a], i]
+            elif motion == 2:
+                W[a, i] = -Vn[nodes[a], i]
+
+
 @njit(cache=True)
 def _gather_own(m, edge, ext_edge, has_opp, has_ext, cell_of, local_of, edges_of, cells, X, gnode, Un, Vn, base,
                 law, prm, motion, c_new, coef, zidx, conn, ip, fp, Xo, prmo, W, Xe, We, vmax_s):
@@ -179,14 +191,10 @@ def _gather_own(m, edge, ext_edge, has_opp, has_ext, cell_of, local_of, edges_of
             conn[k, a] = gnode[n] if has_opp[k] or a == eo or a == (eo + 1) % 4 else -1
         vmax = 0.0
         for a in range(2):
-            n = edges_of[ce, a]
             for i in range(2):
-                if motion == 1:
-                    W[k, a, i] = c_new * Un[n, i] + coef * Vn[n, i]
-                elif motion == 2:
-                    W[k, a, i] = -Vn[n, i]
-                vmax = max(vmax, abs(Vn[n, i]))
+                vmax = max(vmax, abs(Vn[edges_of[ce, a], i]))
         vmax_s[k] = vmax
+        _solid_velocity_terms(edges_of[ce], Un, Vn, motion, c_new, coef, W[k])
         if motion == 1:
             fp[k, tk.F_CU] = c_new
         if not has_ext[k]:
@@ -198,10 +206,7 @@ def _gather_own(m, edge, ext_edge, has_opp, has_ext, cell_of, local_of, edges_of
             for i in range(2):
                 Xe[k, a, i] = X[n, i]
                 zidx[k, tk.OFF_EDGE + 2 * a + i] = base + 2 * n + i
-                if motion == 1:
-                    We[k, a, i] = c_new * Un[n, i] + coef * Vn[n, i]
-                elif motion == 2:
-                    We[k, a, i] = -Vn[n, i]
+        _solid_velocity_terms(edges_of[ee], Un, Vn, motion, c_new, coef, We[k])
         if motion == 1:
             fp[k, tk.F_CUE] = c_new
 
